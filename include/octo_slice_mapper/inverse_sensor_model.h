@@ -1,0 +1,71 @@
+// Inverse sensor model of a range beam (Probabilistic Robotics, ch. 9; the lab's Figure 2):
+// how much a single reading says about the occupancy of a point near the beam.
+#pragma once
+
+namespace octo_slice_mapper {
+
+// Defaults are for a Hokuyo URG-04LX class lidar: 0.36 deg steps, +-10 mm up to 1 m and
+// +-1 % of the range beyond (read as +-2 sigma), 5.6 m range.
+struct InverseSensorModelOptions {
+  // Full opening angle of a beam's cone (rad). The effective cone is never narrower than the
+  // scan's angle step, so neighbouring beams tile the scan plane without gaps.
+  double beam_opening_angle = 0.0087;  // 0.5 deg
+  // Outer share of the half-angle over which the evidence fades smoothly (cosine) to nothing.
+  double cone_taper_fraction = 0.5;
+  // Range standard deviation sigma(r) = sigma_base + sigma_per_meter * r; it sets the thickness of
+  // the occupied peak and the width of the free->occupied->unknown transitions. It is never taken
+  // below half a voxel, so the peak always lands in the voxel of the return.
+  // A wider peak than the sensor's real spread thickens walls: evidence adds up over many scans.
+  double sigma_base = 0.005;
+  double sigma_per_meter = 0.005;
+  // Transitions widen off the beam axis: sigma *= 1 + sigma_angle_gain * (angle / half_angle).
+  double sigma_angle_gain = 1.0;
+  // Probabilities the model assigns in the free valley and at the top of the occupied peak.
+  double p_free = 0.35;
+  double p_occupied = 0.75;
+  // Prior occupancy l0 (as probability). The model returns the prior where it knows nothing, so
+  // the update inverse_model - l0 is exactly zero there.
+  double prior = 0.5;
+  // A reading at/beyond range_max ("no return") clears space up to this distance (m), capped at
+  // range_max; it never marks anything occupied. 0 disables clearing by no-return readings.
+  double no_return_clear_distance = 4.0;
+};
+
+// Evaluates the model in log-odds. All distances in metres, angles in radians.
+class InverseSensorModel {
+ public:
+  explicit InverseSensorModel(const InverseSensorModelOptions& options = {}, double min_sigma = 0.0);
+
+  // Log-odds update (inverse_model - l0) for a point at distance `along` from the sensor,
+  // measured along the beam axis, `off_axis` radians away from the axis, for a beam that returned
+  // at `range`. `half_angle` is the cone half-angle actually in force for this beam.
+  float hitUpdate(double range, double along, double off_axis, double half_angle) const;
+  // Same for a no-return beam that clears up to `clear_distance`.
+  float noReturnUpdate(double clear_distance, double along, double off_axis, double half_angle) const;
+
+  // Distance beyond the return after which the model carries no information (the tracer stops there).
+  // (sigma grows off axis by at most 1 + sigma_angle_gain.)
+  double traceMargin(double range) const {
+    return kBehindCutoff * (1.0 + options_.sigma_angle_gain) * sigmaAt(range, 0.0, 1.0);
+  }
+  static constexpr double kBehindCutoff = 2.0;  // in sigmas: no information further behind a return
+  double sigmaAt(double range, double off_axis, double half_angle) const;
+  // Weight in [0,1] of the evidence at `off_axis` inside a cone of `half_angle`.
+  double coneWeight(double off_axis, double half_angle) const;
+  double halfAngleFor(double angle_increment) const;
+
+  float logOddsFree() const { return l_free_; }
+  float logOddsOccupied() const { return l_occ_; }
+  const InverseSensorModelOptions& options() const { return options_; }
+
+ private:
+  InverseSensorModelOptions options_;
+  double min_sigma_;
+  float l_free_;  // log-odds of p_free relative to the prior
+  float l_occ_;   // log-odds of p_occupied relative to the prior
+};
+
+double logOdds(double p);
+double probability(double log_odds);
+
+}  // namespace octo_slice_mapper

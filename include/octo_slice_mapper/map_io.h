@@ -1,0 +1,51 @@
+// Saving and loading maps: OctoMap .bt/.ot, map_server .pgm/.yaml, and a .png picture.
+#pragma once
+
+#include <octomap/OcTree.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "octo_slice_mapper/slice_grid.h"
+
+namespace octo_slice_mapper {
+
+// .bt: OctoMap's compact binary (max-likelihood). Written with writeBinaryConst so the live
+// probabilistic tree is not thresholded or pruned by saving.
+bool saveBinaryTree(const octomap::OcTree& tree, const std::string& path, std::string* error);
+// .ot: the full tree with log-odds (resume mapping exactly where it stopped).
+bool saveFullTree(const octomap::OcTree& tree, const std::string& path, std::string* error);
+// Loads .bt or .ot (by content, not by name). Returns null with a reason on any problem.
+std::unique_ptr<octomap::OcTree> loadTree(const std::string& path, std::string* error);
+
+// A plain 2D occupancy raster in map_server conventions, independent of where it came from.
+struct GridImage {
+  int width = 0, height = 0;
+  double resolution = 0.05;
+  double origin_x = 0.0, origin_y = 0.0;  // lower-left corner of cell (0, 0)
+  std::vector<std::int8_t> cells;         // row-major, row 0 at the bottom; 0..100 or -1
+  std::int8_t at(int i, int j) const { return cells[std::size_t(j) * width + i]; }
+};
+// The slice's known area (plus `margin_cells` of unknown around it) as a raster.
+GridImage gridImageOf(const SliceGrid& slice, int margin_cells = 5);
+
+// map_server thresholds: occupied above 0.65, free below 0.196 (its defaults).
+struct PgmOptions {
+  double occupied_thresh = 0.65;
+  double free_thresh = 0.196;
+};
+// Writes PREFIX.pgm and PREFIX.yaml (trinary pgm: 0 occupied, 254 free, 205 unknown).
+bool savePgmYaml(const GridImage& grid, const std::string& prefix, std::string* error,
+                 const PgmOptions& options = {});
+// Reads a map_server .yaml + its .pgm back (used by evaluation tools and tests).
+bool loadPgmYaml(const std::string& yaml_path, GridImage* grid, std::string* error);
+// A picture for people: grey levels by probability (white free, black occupied), unknown in a
+// light blue-grey, north up.
+bool savePng(const GridImage& grid, const std::string& path, std::string* error);
+
+// Writes PREFIX.bt, .ot, .pgm, .yaml and .png; appends the files written. Stops at the first error.
+bool saveMapSet(const octomap::OcTree& tree, const SliceGrid& slice, const std::string& prefix,
+                std::vector<std::string>* written, std::string* error);
+
+}  // namespace octo_slice_mapper

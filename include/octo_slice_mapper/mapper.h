@@ -1,0 +1,62 @@
+// The mapping session in core terms: octree + inverse-model insertion + incremental 2D slice.
+#pragma once
+
+#include <octomap/OcTree.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "octo_slice_mapper/scan_inserter.h"
+#include "octo_slice_mapper/slice_grid.h"
+
+namespace octo_slice_mapper {
+
+struct MapperOptions {
+  double resolution = 0.05;  // m, octree leaf size
+  // OctoMap clamping bounds (probabilities): a voxel never gets surer than this, so a person who
+  // walked away is cleared again after a few scans.
+  double clamp_min = 0.12;
+  double clamp_max = 0.97;
+  InsertOptions insert;
+  SliceOptions slice;
+};
+
+struct MapperStats {
+  std::uint64_t scans_inserted = 0;
+  std::uint64_t scans_rejected = 0;  // whole scans refused (bad header, ...)
+  ReadingCounts readings;            // all readings of inserted scans, per reason
+  std::uint64_t voxel_updates = 0;
+};
+
+class Mapper {
+ public:
+  explicit Mapper(const MapperOptions& options = {});
+
+  InsertResult insert(const Scan& scan);
+  InsertResult insertPoints(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points);
+  void reset();
+  // Replaces the map by a saved .bt/.ot (resolution taken from the file). On failure the
+  // current map is kept and false is returned with the reason.
+  bool load(const std::string& path, std::string* error);
+  // Writes PREFIX.{bt,ot,pgm,yaml,png}.
+  bool save(const std::string& prefix, std::vector<std::string>* written, std::string* error) const;
+
+  const octomap::OcTree& tree() const { return *tree_; }
+  const SliceGrid& slice() const { return *slice_; }
+  const MapperStats& stats() const { return stats_; }
+  const MapperOptions& options() const { return options_; }
+  const ScanInserter& inserter() const { return *inserter_; }
+
+ private:
+  void adopt(std::unique_ptr<octomap::OcTree> tree);
+  InsertResult record(InsertResult result);  // slice update + statistics
+
+  MapperOptions options_;
+  std::unique_ptr<octomap::OcTree> tree_;
+  std::unique_ptr<ScanInserter> inserter_;
+  std::unique_ptr<SliceGrid> slice_;
+  MapperStats stats_;
+};
+
+}  // namespace octo_slice_mapper

@@ -1,0 +1,59 @@
+// A planar range scan in core terms: where the sensor was, and what each beam read.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace octo_slice_mapper {
+
+// One 2D lidar sweep. Beams lie in the sensor frame's x-y plane; the sensor pose is
+// full 3D (from tf), so a tilted robot yields tilted rays.
+struct Scan {
+  Eigen::Isometry3d sensor_pose = Eigen::Isometry3d::Identity();  // sensor frame -> map frame
+  double stamp = 0.0;                                              // seconds
+  float angle_min = 0.0f;                                          // rad, angle of ranges[0]
+  float angle_increment = 0.0f;                                    // rad between beams
+  float range_min = 0.0f;                                          // m, readings below are invalid
+  float range_max = 0.0f;                                          // m, readings at/above mean "no return"
+  std::vector<float> ranges;                                       // m
+
+  double beamAngle(std::size_t i) const { return angle_min + static_cast<double>(i) * angle_increment; }
+};
+
+// How one reading is interpreted. Invalid readings carry no information and are counted.
+enum class ReadingKind : std::uint8_t {
+  kHit,          // a return inside (range_min, range_max)
+  kNoReturn,     // at or beyond range_max: free space up to a clearing distance, nothing occupied
+  kNaN,          // driver error
+  kInfinite,     // +/-inf (see ReadingPolicy::inf_is_no_return for REP-117 drivers)
+  kNegative,     // < 0
+  kBelowMin,     // in [0, range_min)
+};
+constexpr int kReadingKindCount = 6;
+const char* readingKindName(ReadingKind kind);
+
+struct ReadingPolicy {
+  // REP-117 drivers report "nothing within range" as +inf; by default +inf is treated as invalid
+  // like NaN, because many older drivers also emit it on errors.
+  bool inf_is_no_return = false;
+};
+
+ReadingKind classifyReading(float range, float range_min, float range_max, const ReadingPolicy& policy);
+
+// Per-reason counters for readings of one or many scans.
+struct ReadingCounts {
+  std::uint64_t count[kReadingKindCount] = {0, 0, 0, 0, 0, 0};
+  std::uint64_t& operator[](ReadingKind k) { return count[static_cast<int>(k)]; }
+  std::uint64_t operator[](ReadingKind k) const { return count[static_cast<int>(k)]; }
+  std::uint64_t skipped() const;
+  ReadingCounts& operator+=(const ReadingCounts& other);
+  std::string summary() const;  // "hit=.. no_return=.. nan=.." for logs
+};
+
+// Structural problems that make a whole scan unusable (as opposed to single bad readings).
+// Returns an empty string when the scan is usable.
+std::string validateScanHeader(const Scan& scan, std::size_t max_beams = 100000);
+
+}  // namespace octo_slice_mapper

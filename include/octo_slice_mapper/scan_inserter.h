@@ -1,0 +1,100 @@
+// Inserts scans into an OctoMap log-odds octree with the inverse sensor model.
+#pragma once
+
+#include <octomap/OcTree.h>
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <unordered_map>
+#include <vector>
+
+#include "octo_slice_mapper/inverse_sensor_model.h"
+#include "octo_slice_mapper/key_box.h"
+#include "octo_slice_mapper/scan.h"
+
+namespace octo_slice_mapper {
+
+struct InsertOptions {
+  InverseSensorModelOptions model;
+  ReadingPolicy readings;
+  // Returns farther than this (m) are cut: space up to max_range is cleared, nothing marked
+  // occupied. 0 = use only the sensor's own range_max.
+  double max_range = 0.0;
+};
+
+struct InsertResult {
+  ReadingCounts readings;          // per-reason reading counts of this scan
+  std::uint64_t voxels_updated = 0;
+  KeyBox touched;                  // keys whose log-odds changed (bounding box)
+  std::string error;               // non-empty: the whole scan was rejected, map untouched
+  bool ok() const { return error.empty(); }
+};
+
+// One ray with its interpretation, in the map frame.
+struct Beam {
+  Eigen::Vector3d direction;  // unit
+  double length;              // hit: measured range; no-return: clearing distance
+  bool hit;                   // false = clear only
+  // Unit vector across the cone in the scan plane (zero for point-cloud beams, traced on axis).
+  Eigen::Vector3d across = Eigen::Vector3d::Zero();
+};
+
+// Which voxels a beam reaches: the voxels its axis crosses, plus, where the cone is wider than a
+// voxel (sparse scans, long ranges), those crossed by extra rays fanned across the cone in the
+// scan plane, at most one voxel apart. Each is weighted by the model at the angle between the
+// beam axis and the voxel's part nearest to it.
+//
+// How overlapping beams combine inside one scan: every voxel gets at most one update per scan.
+// Of all beams whose cone covers a voxel, occupied evidence wins (the largest positive update);
+// only when no beam saw an obstacle there does the strongest free evidence apply. So a return is
+// never erased by a neighbouring beam that passes it, and a voxel crossed by many beams near the
+// sensor is not cleared many times over.
+class ScanInserter {
+ public:
+  ScanInserter(octomap::OcTree* tree, const InsertOptions& options);
+
+  InsertResult insert(const Scan& scan);
+  // Points from a 3D sensor: each is a return seen from `origin`; `half_angle` is the cone.
+  InsertResult insertPoints(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points,
+                            double half_angle);
+  // The interpretation of a scan as beams (exposed for tests and the reference implementation).
+  std::vector<Beam> beamsOf(const Scan& scan, ReadingCounts* counts) const;
+
+  // Per-voxel log-odds updates of one scan before they are applied, in traversal order.
+  struct VoxelUpdate {
+    octomap::OcTreeKey key;
+    float log_odds;
+  };
+  std::vector<VoxelUpdate> computeUpdates(const Eigen::Vector3d& origin, const std::vector<Beam>& beams,
+                                          double half_angle);
+
+  const InverseSensorModel& model() const { return model_; }
+  const InsertOptions& options() const { return options_; }
+
+ private:
+  InsertResult apply(const std::vector<VoxelUpdate>& updates, InsertResult result);
+  void accumulate(const octomap::OcTreeKey& key, float value);
+  double traceLength(const Beam& beam) const;
+  void fanOf(const Beam& beam, double tan_half, std::vector<Eigen::Vector3d>* directions) const;
+  std::size_t windowIndex(const octomap::OcTreeKey& key) const;
+  void prepareWindow(const octomap::OcTreeKey& lo, const octomap::OcTreeKey& hi);
+
+  octomap::OcTree* tree_;
+  InsertOptions options_;
+  InverseSensorModel model_;
+
+  // Per-scan accumulation: a dense window over the scan's key bounding box maps a key to a slot.
+  struct Slot {
+    octomap::OcTreeKey key;
+    float positive;  // largest occupied evidence
+    float negative;  // strongest free evidence
+  };
+  std::vector<Slot> slots_;
+  std::vector<std::int32_t> window_;  // slot index or -1
+  std::unordered_map<octomap::OcTreeKey, std::int32_t, octomap::OcTreeKey::KeyHash> sparse_;
+  octomap::OcTreeKey window_lo_;
+  int window_nx_ = 0, window_ny_ = 0, window_nz_ = 0;
+  octomap::KeyRay ray_;
+};
+
+}  // namespace octo_slice_mapper

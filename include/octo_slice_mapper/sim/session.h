@@ -1,0 +1,77 @@
+// A deterministic simulated TurtleBot run through a FloorPlan: poses over time and Hokuyo-like scans.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <random>
+#include <vector>
+
+#include "octo_slice_mapper/scan.h"
+#include "octo_slice_mapper/sim/floor_plan.h"
+
+namespace octo_slice_mapper {
+namespace sim {
+
+struct Pose2D {
+  double t = 0.0, x = 0.0, y = 0.0, yaw = 0.0;
+  double v = 0.0, w = 0.0;  // forward and angular speed at this instant (for odometry messages)
+};
+
+// Hokuyo URG-04LX-like: 682 beams of 2*pi/1024 rad over ~240 deg, 5.6 m.
+struct LidarSpec {
+  float angle_min = -2.08621f;
+  float angle_increment = 0.00613592f;
+  int beams = 682;
+  float range_min = 0.02f;
+  float range_max = 5.6f;
+  double rate_hz = 10.0;
+  double noise_sigma_near = 0.01;    // m, up to 1 m
+  double noise_fraction_far = 0.01;  // of the range beyond 1 m
+  double dropout_probability = 0.005;       // reading 0.0 (below range_min), driver-style error
+  double nan_probability = 0.003;
+  // Dark or glass surfaces that return nothing; off by default (they clear space through walls).
+  double spurious_no_return_probability = 0.0;
+  // Laser mount on base_link (the lab's TurtleBot: 0.10 m forward, 0.26 m up).
+  double mount_x = 0.10, mount_z = 0.26;
+};
+
+struct SessionSpec {
+  std::vector<Eigen::Vector2d> waypoints;  // base_footprint path; drives straight, turns in place
+  double linear_speed = 0.5;               // m/s
+  double angular_speed = 1.2;              // rad/s
+  double pose_rate_hz = 50.0;              // odometry / tf rate
+  std::uint32_t seed = 42;
+  LidarSpec lidar;
+
+  // A tour of FloorPlan::office(): corridor, rooms A, C and B through their doors, back down the corridor.
+  static SessionSpec officeTour();
+};
+
+class SimulatedSession {
+ public:
+  SimulatedSession(const FloorPlan& plan, const SessionSpec& spec);
+
+  // Robot poses at the odometry rate, from the first waypoint to the last.
+  const std::vector<Pose2D>& poses() const { return poses_; }
+  double duration() const { return poses_.empty() ? 0.0 : poses_.back().t; }
+  Pose2D poseAt(double t) const;  // interpolated
+  // Laser pose in the odom/map frame for a base pose.
+  Eigen::Isometry3d laserPose(const Pose2D& base) const;
+  // Times at which scans are taken.
+  std::vector<double> scanTimes() const;
+  // The scan at time t (noise drawn from `rng`, so call in time order for a reproducible run).
+  Scan scanAt(double t, std::mt19937* rng) const;
+  // All scans of the session in order, with the default seed.
+  std::vector<Scan> allScans() const;
+
+  const FloorPlan& plan() const { return plan_; }
+  const SessionSpec& spec() const { return spec_; }
+
+ private:
+  FloorPlan plan_;
+  SessionSpec spec_;
+  std::vector<Pose2D> poses_;
+};
+
+}  // namespace sim
+}  // namespace octo_slice_mapper

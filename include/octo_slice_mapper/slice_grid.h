@@ -1,0 +1,69 @@
+// A 2D occupancy grid cut from the octree over a z band, kept up to date incrementally.
+#pragma once
+
+#include <octomap/OcTree.h>
+
+#include <cstdint>
+#include <vector>
+
+#include "octo_slice_mapper/key_box.h"
+
+namespace octo_slice_mapper {
+
+struct SliceOptions {
+  // The z band (map frame, m) whose voxels are projected. Default: the voxel layers within
+  // +-0.10 m of the 0.26 m laser mount height.
+  double min_z = 0.16;
+  double max_z = 0.36;
+};
+
+constexpr std::int8_t kUnknownCell = -1;
+
+// Cell (i, j) covers the octree column with keys (origin_key_x + i, origin_key_y + j). Values are
+// the band's occupancy probability in percent (0..100) or -1 when no voxel of the band is known.
+// Of several known voxels in a column the most occupied one counts: an obstacle anywhere in the
+// band blocks the robot.
+class SliceGrid {
+ public:
+  SliceGrid(const octomap::OcTree& tree, const SliceOptions& options);
+
+  // Recomputes the columns inside `box` (x/y of the keys; the band decides z). Cost is
+  // proportional to the box area, independent of the map size.
+  void update(const KeyBox& box);
+  // Recomputes everything from the tree (after loading a map or for checking).
+  void rebuild();
+  void clear();
+
+  int width() const { return width_; }
+  int height() const { return height_; }
+  double resolution() const { return resolution_; }
+  // World coordinates of the lower-left corner of cell (0, 0).
+  double originX() const;
+  double originY() const;
+  const std::vector<std::int8_t>& data() const { return data_; }  // row-major, row = y
+  std::int8_t at(int i, int j) const { return data_[std::size_t(j) * width_ + i]; }
+  // Cell value at a world point, or -1 outside the grid.
+  std::int8_t valueAt(double x, double y) const;
+  bool cellOf(double x, double y, int* i, int* j) const;
+  std::uint16_t originKeyX() const { return origin_key_x_; }
+  std::uint16_t originKeyY() const { return origin_key_y_; }
+  std::uint16_t bandMinKey() const { return band_lo_; }
+  std::uint16_t bandMaxKey() const { return band_hi_; }
+  const SliceOptions& options() const { return options_; }
+  // Number of cells that are not unknown.
+  std::size_t knownCells() const;
+
+ private:
+  void ensureCovers(std::uint16_t kx0, std::uint16_t ky0, std::uint16_t kx1, std::uint16_t ky1);
+  std::int8_t columnValue(std::uint16_t kx, std::uint16_t ky) const;
+
+  const octomap::OcTree& tree_;
+  SliceOptions options_;
+  double resolution_;
+  std::uint16_t band_lo_, band_hi_;
+  std::uint16_t origin_key_x_ = 0, origin_key_y_ = 0;
+  int width_ = 0, height_ = 0;
+  std::vector<std::int8_t> data_;
+};
+
+}  // namespace octo_slice_mapper

@@ -1,0 +1,80 @@
+#include "octo_slice_mapper/inverse_sensor_model.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace octo_slice_mapper {
+
+double logOdds(double p) { return std::log(p / (1.0 - p)); }
+double probability(double log_odds) { return 1.0 / (1.0 + std::exp(-log_odds)); }
+
+InverseSensorModel::InverseSensorModel(const InverseSensorModelOptions& options, double min_sigma)
+    : options_(options), min_sigma_(min_sigma) {
+  auto in_open_unit = [](double p) { return p > 0.0 && p < 1.0; };
+  if (!in_open_unit(options.p_free) || !in_open_unit(options.p_occupied) || !in_open_unit(options.prior)) {
+    throw std::invalid_argument("inverse sensor model: probabilities must lie in (0, 1)");
+  }
+  if (!(options.p_free < options.prior && options.prior < options.p_occupied)) {
+    throw std::invalid_argument("inverse sensor model: need p_free < prior < p_occupied");
+  }
+  if (!(options.sigma_base > 0.0) || options.sigma_per_meter < 0.0 || options.sigma_angle_gain < 0.0) {
+    throw std::invalid_argument("inverse sensor model: sigma_base must be > 0, gains >= 0");
+  }
+  if (options.beam_opening_angle < 0.0 || options.cone_taper_fraction < 0.0 || options.cone_taper_fraction > 1.0) {
+    throw std::invalid_argument("inverse sensor model: opening angle >= 0, taper fraction in [0, 1]");
+  }
+  const double l0 = logOdds(options.prior);
+  l_free_ = static_cast<float>(logOdds(options.p_free) - l0);
+  l_occ_ = static_cast<float>(logOdds(options.p_occupied) - l0);
+}
+
+double InverseSensorModel::halfAngleFor(double angle_increment) const {
+  return 0.5 * std::max(options_.beam_opening_angle, std::abs(angle_increment));
+}
+
+double InverseSensorModel::sigmaAt(double range, double off_axis, double half_angle) const {
+  double sigma = options_.sigma_base + options_.sigma_per_meter * range;
+  if (half_angle > 0.0) sigma *= 1.0 + options_.sigma_angle_gain * std::min(1.0, off_axis / half_angle);
+  // The occupied peak can't be thinner than the voxel it has to land in.
+  return std::max(sigma, min_sigma_);
+}
+
+double InverseSensorModel::coneWeight(double off_axis, double half_angle) const {
+  if (off_axis >= half_angle) return 0.0;
+  const double inner = half_angle * (1.0 - options_.cone_taper_fraction);
+  if (off_axis <= inner) return 1.0;
+  const double t = (off_axis - inner) / (half_angle - inner);
+  return 0.5 * (1.0 + std::cos(M_PI * t));
+}
+
+// Along the axis, with u = (d - r) / sigma, the update is w * (l_free * F(u) + l_occ * G(u) * B(u)):
+//   F, the free valley, is 1 well before the return and falls smoothly (a Gaussian CDF) to 0
+//     around u = -2, so the last stretch before the return is not claimed free;
+//   G, the occupied peak, is a Gaussian of width sigma centred on the return;
+//   B fades the peak's far flank smoothly to zero between u = 1 and u = 2, so no information
+//     reaches more than 2 sigma behind the obstacle (a long positive tail would add up over many
+//     scans and thicken every wall).
+float InverseSensorModel::hitUpdate(double range, double along, double off_axis, double half_angle) const {
+  const double w = coneWeight(off_axis, half_angle);
+  if (w <= 0.0 || along < 0.0) return 0.0f;
+  const double sigma = sigmaAt(range, off_axis, half_angle);
+  const double u = (along - range) / sigma;
+  if (u >= kBehindCutoff) return 0.0f;
+  const double free_share = 0.5 * std::erfc((u + 2.0) / M_SQRT2);
+  const double behind = u <= 1.0 ? 1.0 : 0.5 * (1.0 + std::cos(M_PI * (u - 1.0) / (kBehindCutoff - 1.0)));
+  const double peak = std::exp(-0.5 * u * u) * behind;
+  return static_cast<float>(w * (l_free_ * free_share + l_occ_ * peak));
+}
+
+float InverseSensorModel::noReturnUpdate(double clear_distance, double along, double off_axis,
+                                         double half_angle) const {
+  const double w = coneWeight(off_axis, half_angle);
+  if (w <= 0.0 || along < 0.0) return 0.0f;
+  const double sigma = sigmaAt(clear_distance, off_axis, half_angle);
+  const double u = (along - clear_distance) / sigma;
+  if (u >= kBehindCutoff) return 0.0f;
+  return static_cast<float>(w * l_free_ * 0.5 * std::erfc((u + 2.0) / M_SQRT2));
+}
+
+}  // namespace octo_slice_mapper

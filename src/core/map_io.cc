@@ -1,0 +1,264 @@
+#include "octo_slice_mapper/map_io.h"
+
+#include <png.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <sstream>
+
+#include "octo_slice_mapper/atomic_file.h"
+
+namespace octo_slice_mapper {
+namespace {
+
+const char kBinaryHeader[] = "# Octomap OcTree binary file";
+const char kFullHeader[] = "# Octomap OcTree file";
+
+bool startsWith(const std::string& s, const char* prefix) { return s.compare(0, std::strlen(prefix), prefix) == 0; }
+
+std::string baseName(const std::string& path) {
+  const auto slash = path.find_last_of('/');
+  return slash == std::string::npos ? path : path.substr(slash + 1);
+}
+
+std::string dirName(const std::string& path) {
+  const auto slash = path.find_last_of('/');
+  return slash == std::string::npos ? "." : path.substr(0, slash);
+}
+
+void pngWriteToString(png_structp png, png_bytep data, png_size_t length) {
+  static_cast<std::string*>(png_get_io_ptr(png))->append(reinterpret_cast<const char*>(data), length);
+}
+
+}  // namespace
+
+bool saveBinaryTree(const octomap::OcTree& tree, const std::string& path, std::string* error) {
+  std::ostringstream out(std::ios::binary);
+  if (!tree.writeBinaryConst(out)) {
+    *error = "octomap could not serialise the tree for " + path;
+    return false;
+  }
+  return writeFileAtomically(path, out.str(), error);
+}
+
+bool saveFullTree(const octomap::OcTree& tree, const std::string& path, std::string* error) {
+  std::ostringstream out(std::ios::binary);
+  if (!tree.write(out)) {
+    *error = "octomap could not serialise the tree for " + path;
+    return false;
+  }
+  return writeFileAtomically(path, out.str(), error);
+}
+
+std::unique_ptr<octomap::OcTree> loadTree(const std::string& path, std::string* error) {
+  std::string bytes;
+  if (!readFile(path, &bytes, error)) return nullptr;
+  std::istringstream in(bytes, std::ios::binary);
+  if (startsWith(bytes, kBinaryHeader)) {
+    auto tree = std::make_unique<octomap::OcTree>(0.1);
+    if (!tree->readBinary(in)) {
+      *error = path + ": corrupt or truncated OctoMap binary (.bt) file";
+      return nullptr;
+    }
+    return tree;
+  }
+  if (startsWith(bytes, kFullHeader)) {
+    std::unique_ptr<octomap::AbstractOcTree> abstract(octomap::AbstractOcTree::read(in));
+    if (!abstract) {
+      *error = path + ": corrupt or truncated OctoMap (.ot) file";
+      return nullptr;
+    }
+    auto* tree = dynamic_cast<octomap::OcTree*>(abstract.get());
+    if (!tree) {
+      *error = path + ": holds a " + abstract->getTreeType() + ", not an OcTree";
+      return nullptr;
+    }
+    abstract.release();
+    return std::unique_ptr<octomap::OcTree>(tree);
+  }
+  *error = path + ": not an OctoMap file (neither .bt nor .ot header)";
+  return nullptr;
+}
+
+GridImage gridImageOf(const SliceGrid& slice, int margin_cells) {
+  GridImage grid;
+  grid.resolution = slice.resolution();
+  // Crop to the known cells (plus a margin): the live grid keeps spare room to grow into.
+  int i0 = slice.width(), j0 = slice.height(), i1 = -1, j1 = -1;
+  for (int j = 0; j < slice.height(); ++j) {
+    for (int i = 0; i < slice.width(); ++i) {
+      if (slice.at(i, j) == kUnknownCell) continue;
+      i0 = std::min(i0, i), i1 = std::max(i1, i), j0 = std::min(j0, j), j1 = std::max(j1, j);
+    }
+  }
+  if (i1 < 0) return grid;
+  i0 = std::max(0, i0 - margin_cells), j0 = std::max(0, j0 - margin_cells);
+  i1 = std::min(slice.width() - 1, i1 + margin_cells), j1 = std::min(slice.height() - 1, j1 + margin_cells);
+  grid.width = i1 - i0 + 1;
+  grid.height = j1 - j0 + 1;
+  grid.origin_x = slice.originX() + i0 * grid.resolution;
+  grid.origin_y = slice.originY() + j0 * grid.resolution;
+  grid.cells.reserve(std::size_t(grid.width) * grid.height);
+  for (int j = j0; j <= j1; ++j) {
+    for (int i = i0; i <= i1; ++i) grid.cells.push_back(slice.at(i, j));
+  }
+  return grid;
+}
+
+bool savePgmYaml(const GridImage& grid, const std::string& prefix, std::string* error, const PgmOptions& options) {
+  if (grid.width <= 0 || grid.height <= 0) {
+    *error = "the map is empty: nothing to write to " + prefix + ".pgm";
+    return false;
+  }
+  std::ostringstream pgm(std::ios::binary);
+  pgm << "P5\n# octo_slice_mapper " << grid.resolution << " m/pix\n" << grid.width << ' ' << grid.height << "\n255\n";
+  std::string row(static_cast<std::size_t>(grid.width), '\0');
+  for (int j = grid.height - 1; j >= 0; --j) {  // pgm rows go top-down
+    for (int i = 0; i < grid.width; ++i) {
+      const int v = grid.at(i, j);
+      unsigned char pixel = 205;
+      if (v >= 0 && v / 100.0 > options.occupied_thresh) pixel = 0;
+      else if (v >= 0 && v / 100.0 < options.free_thresh) pixel = 254;
+      row[static_cast<std::size_t>(i)] = static_cast<char>(pixel);
+    }
+    pgm << row;
+  }
+  std::ostringstream yaml;
+  yaml.precision(9);
+  yaml << "image: " << baseName(prefix) << ".pgm\n"
+       << "resolution: " << grid.resolution << "\n"
+       << "origin: [" << grid.origin_x << ", " << grid.origin_y << ", 0.0]\n"
+       << "negate: 0\n"
+       << "occupied_thresh: " << options.occupied_thresh << "\n"
+       << "free_thresh: " << options.free_thresh << "\n";
+  // The image first: a yaml never names a pgm that is not there.
+  return writeFileAtomically(prefix + ".pgm", pgm.str(), error) &&
+         writeFileAtomically(prefix + ".yaml", yaml.str(), error);
+}
+
+bool loadPgmYaml(const std::string& yaml_path, GridImage* grid, std::string* error) {
+  std::string text;
+  if (!readFile(yaml_path, &text, error)) return false;
+  std::string image;
+  double occupied_thresh = 0.65, free_thresh = 0.196;
+  int negate = 0;
+  bool have_res = false, have_origin = false;
+  std::istringstream lines(text);
+  std::string line;
+  while (std::getline(lines, line)) {
+    const auto colon = line.find(':');
+    if (colon == std::string::npos) continue;
+    const std::string key = line.substr(0, colon);
+    std::string value = line.substr(colon + 1);
+    value.erase(0, value.find_first_not_of(" \t"));
+    if (key == "image") image = value;
+    else if (key == "resolution") have_res = std::sscanf(value.c_str(), "%lf", &grid->resolution) == 1;
+    else if (key == "origin") have_origin = std::sscanf(value.c_str(), "[%lf , %lf", &grid->origin_x, &grid->origin_y) == 2;
+    else if (key == "occupied_thresh") std::sscanf(value.c_str(), "%lf", &occupied_thresh);
+    else if (key == "free_thresh") std::sscanf(value.c_str(), "%lf", &free_thresh);
+    else if (key == "negate") std::sscanf(value.c_str(), "%d", &negate);
+  }
+  if (image.empty() || !have_res || !have_origin || !(grid->resolution > 0)) {
+    *error = yaml_path + ": needs image, resolution > 0 and origin";
+    return false;
+  }
+  const std::string image_path = image[0] == '/' ? image : dirName(yaml_path) + "/" + image;
+  std::string pgm;
+  if (!readFile(image_path, &pgm, error)) return false;
+  std::istringstream in(pgm, std::ios::binary);
+  std::string magic;
+  in >> magic;
+  auto skipComments = [&in]() {
+    in >> std::ws;
+    while (in.peek() == '#') {
+      std::string ignored;
+      std::getline(in, ignored);
+      in >> std::ws;
+    }
+  };
+  int maxval = 0;
+  skipComments();
+  in >> grid->width;
+  skipComments();
+  in >> grid->height;
+  skipComments();
+  in >> maxval;
+  in.get();
+  const std::size_t n = std::size_t(std::max(grid->width, 0)) * std::size_t(std::max(grid->height, 0));
+  if (magic != "P5" || !in || grid->width <= 0 || grid->height <= 0 || maxval != 255 ||
+      pgm.size() - static_cast<std::size_t>(in.tellg()) < n) {
+    *error = image_path + ": not a complete 8-bit binary PGM (P5)";
+    return false;
+  }
+  const auto* pixels = reinterpret_cast<const unsigned char*>(pgm.data() + static_cast<std::size_t>(in.tellg()));
+  grid->cells.assign(n, kUnknownCell);
+  for (int row = 0; row < grid->height; ++row) {
+    const int j = grid->height - 1 - row;
+    for (int i = 0; i < grid->width; ++i) {
+      const unsigned char v = pixels[std::size_t(row) * grid->width + i];
+      const double p = negate ? v / 255.0 : (255 - v) / 255.0;
+      std::int8_t cell = kUnknownCell;
+      if (p > occupied_thresh) cell = 100;
+      else if (p < free_thresh) cell = 0;
+      grid->cells[std::size_t(j) * grid->width + i] = cell;
+    }
+  }
+  return true;
+}
+
+bool savePng(const GridImage& grid, const std::string& path, std::string* error) {
+  if (grid.width <= 0 || grid.height <= 0) {
+    *error = "the map is empty: nothing to draw into " + path;
+    return false;
+  }
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+  png_infop info = png ? png_create_info_struct(png) : nullptr;
+  if (!png || !info) {
+    png_destroy_write_struct(&png, &info);
+    *error = "libpng could not start for " + path;
+    return false;
+  }
+  std::string bytes;
+  std::vector<png_byte> row(std::size_t(grid.width) * 3);
+  if (setjmp(png_jmpbuf(png))) {
+    png_destroy_write_struct(&png, &info);
+    *error = "libpng failed while encoding " + path;
+    return false;
+  }
+  png_set_write_fn(png, &bytes, pngWriteToString, nullptr);
+  png_set_IHDR(png, info, grid.width, grid.height, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
+               PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+  png_write_info(png, info);
+  for (int j = grid.height - 1; j >= 0; --j) {  // north up
+    for (int i = 0; i < grid.width; ++i) {
+      const int v = grid.at(i, j);
+      png_byte* px = &row[std::size_t(i) * 3];
+      if (v < 0) {
+        px[0] = 196, px[1] = 204, px[2] = 216;
+      } else {
+        const auto grey = static_cast<png_byte>(std::lround(255.0 * (1.0 - v / 100.0)));
+        px[0] = px[1] = px[2] = grey;
+      }
+    }
+    png_write_row(png, row.data());
+  }
+  png_write_end(png, nullptr);
+  png_destroy_write_struct(&png, &info);
+  return writeFileAtomically(path, bytes, error);
+}
+
+bool saveMapSet(const octomap::OcTree& tree, const SliceGrid& slice, const std::string& prefix,
+                std::vector<std::string>* written, std::string* error) {
+  auto record = [written](const std::string& file) {
+    if (written) written->push_back(file);
+    return true;
+  };
+  if (!saveBinaryTree(tree, prefix + ".bt", error) || !record(prefix + ".bt")) return false;
+  if (!saveFullTree(tree, prefix + ".ot", error) || !record(prefix + ".ot")) return false;
+  const GridImage grid = gridImageOf(slice);
+  if (!savePgmYaml(grid, prefix, error) || !record(prefix + ".pgm") || !record(prefix + ".yaml")) return false;
+  return savePng(grid, prefix + ".png", error) && record(prefix + ".png");
+}
+
+}  // namespace octo_slice_mapper

@@ -1,0 +1,70 @@
+#include "octo_slice_mapper/mapper.h"
+
+#include <stdexcept>
+
+#include "octo_slice_mapper/map_io.h"
+
+namespace octo_slice_mapper {
+
+Mapper::Mapper(const MapperOptions& options) : options_(options) {
+  if (!(options.resolution > 0.0)) throw std::invalid_argument("mapper: resolution must be > 0");
+  if (!(0.0 < options.clamp_min && options.clamp_min < 0.5 && 0.5 < options.clamp_max && options.clamp_max < 1.0)) {
+    throw std::invalid_argument("mapper: need 0 < clamp_min < 0.5 < clamp_max < 1");
+  }
+  adopt(std::make_unique<octomap::OcTree>(options.resolution));
+}
+
+void Mapper::adopt(std::unique_ptr<octomap::OcTree> tree) {
+  tree->setClampingThresMin(options_.clamp_min);
+  tree->setClampingThresMax(options_.clamp_max);
+  tree->setOccupancyThres(0.5);
+  options_.resolution = tree->getResolution();
+  // Build the new parts before swapping, so a bad option leaves the old map in place.
+  auto inserter = std::make_unique<ScanInserter>(tree.get(), options_.insert);
+  auto slice = std::make_unique<SliceGrid>(*tree, options_.slice);
+  slice->rebuild();
+  tree_ = std::move(tree);
+  inserter_ = std::move(inserter);
+  slice_ = std::move(slice);
+}
+
+InsertResult Mapper::insert(const Scan& scan) { return record(inserter_->insert(scan)); }
+
+InsertResult Mapper::insertPoints(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points) {
+  return record(inserter_->insertPoints(origin, points, inserter_->model().halfAngleFor(0.0)));
+}
+
+InsertResult Mapper::record(InsertResult result) {
+  if (!result.ok()) {
+    stats_.scans_rejected++;
+    return result;
+  }
+  slice_->update(result.touched);
+  stats_.scans_inserted++;
+  stats_.readings += result.readings;
+  stats_.voxel_updates += result.voxels_updated;
+  return result;
+}
+
+void Mapper::reset() {
+  adopt(std::make_unique<octomap::OcTree>(options_.resolution));
+  stats_ = MapperStats();
+}
+
+bool Mapper::load(const std::string& path, std::string* error) {
+  std::unique_ptr<octomap::OcTree> tree = loadTree(path, error);
+  if (!tree) return false;
+  try {
+    adopt(std::move(tree));
+  } catch (const std::exception& e) {
+    *error = path + ": " + e.what();
+    return false;
+  }
+  return true;
+}
+
+bool Mapper::save(const std::string& prefix, std::vector<std::string>* written, std::string* error) const {
+  return saveMapSet(*tree_, *slice_, prefix, written, error);
+}
+
+}  // namespace octo_slice_mapper

@@ -1,0 +1,205 @@
+#include "octo_slice_mapper/scan_inserter.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace octo_slice_mapper {
+namespace {
+// Above this many cells the dense window would cost more memory than it saves (e.g. 80 m returns
+// at 0.02 m); such scans use a hash map instead.
+constexpr std::size_t kMaxWindowCells = std::size_t{16} << 20;
+}  // namespace
+
+ScanInserter::ScanInserter(octomap::OcTree* tree, const InsertOptions& options)
+    : tree_(tree), options_(options), model_(options.model, 0.5 * tree->getResolution()) {}
+
+std::vector<Beam> ScanInserter::beamsOf(const Scan& scan, ReadingCounts* counts) const {
+  std::vector<Beam> beams;
+  beams.reserve(scan.ranges.size());
+  const Eigen::Matrix3d rotation = scan.sensor_pose.linear();
+  const double clear = std::min<double>(options_.model.no_return_clear_distance, scan.range_max);
+  const double max_range = options_.max_range > 0.0 ? options_.max_range : 1e30;
+  for (std::size_t i = 0; i < scan.ranges.size(); ++i) {
+    const float r = scan.ranges[i];
+    const ReadingKind kind = classifyReading(r, scan.range_min, scan.range_max, options_.readings);
+    if (counts) (*counts)[kind]++;
+    const double a = scan.beamAngle(i);
+    const Eigen::Vector3d dir = rotation * Eigen::Vector3d(std::cos(a), std::sin(a), 0.0);
+    const Eigen::Vector3d across = rotation * Eigen::Vector3d(-std::sin(a), std::cos(a), 0.0);
+    if (kind == ReadingKind::kHit) {
+      if (r > max_range) {
+        beams.push_back({dir, max_range, false, across});  // cut beam: seen free up to max_range
+      } else {
+        beams.push_back({dir, r, true, across});
+      }
+    } else if (kind == ReadingKind::kNoReturn && clear > 0.0) {
+      beams.push_back({dir, std::min(clear, max_range), false, across});
+    }
+  }
+  return beams;
+}
+
+InsertResult ScanInserter::insert(const Scan& scan) {
+  InsertResult result;
+  result.error = validateScanHeader(scan);
+  if (!result.ok()) return result;
+  const std::vector<Beam> beams = beamsOf(scan, &result.readings);
+  const double half_angle = model_.halfAngleFor(scan.angle_increment);
+  return apply(computeUpdates(scan.sensor_pose.translation(), beams, half_angle), result);
+}
+
+InsertResult ScanInserter::insertPoints(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points,
+                                        double half_angle) {
+  InsertResult result;
+  if (!origin.allFinite()) {
+    result.error = "sensor origin is not finite";
+    return result;
+  }
+  std::vector<Beam> beams;
+  beams.reserve(points.size());
+  const double max_range = options_.max_range > 0.0 ? options_.max_range : 1e30;
+  for (const Eigen::Vector3f& p : points) {
+    const Eigen::Vector3d v = p.cast<double>() - origin;
+    const double r = v.norm();
+    if (!std::isfinite(r)) {
+      result.readings[ReadingKind::kNaN]++;
+      continue;
+    }
+    if (r < 1e-6) {
+      result.readings[ReadingKind::kBelowMin]++;
+      continue;
+    }
+    result.readings[ReadingKind::kHit]++;
+    beams.push_back({v / r, std::min(r, max_range), r <= max_range});
+  }
+  return apply(computeUpdates(origin, beams, half_angle), result);
+}
+
+double ScanInserter::traceLength(const Beam& beam) const {
+  return beam.hit ? beam.length + model_.traceMargin(beam.length) : beam.length;
+}
+
+void ScanInserter::prepareWindow(const octomap::OcTreeKey& lo, const octomap::OcTreeKey& hi) {
+  window_lo_ = lo;
+  window_nx_ = hi[0] - lo[0] + 1;
+  window_ny_ = hi[1] - lo[1] + 1;
+  window_nz_ = hi[2] - lo[2] + 1;
+  const std::size_t cells = std::size_t(window_nx_) * window_ny_ * window_nz_;
+  if (cells > kMaxWindowCells) {
+    window_nx_ = 0;  // sparse mode
+    sparse_.clear();
+    return;
+  }
+  if (window_.size() < cells) window_.assign(cells, -1);
+}
+
+std::size_t ScanInserter::windowIndex(const octomap::OcTreeKey& key) const {
+  return (std::size_t(key[2] - window_lo_[2]) * window_ny_ + (key[1] - window_lo_[1])) * window_nx_ +
+         (key[0] - window_lo_[0]);
+}
+
+void ScanInserter::accumulate(const octomap::OcTreeKey& key, float value) {
+  std::int32_t* slot_ref = nullptr;
+  if (window_nx_ > 0) {
+    slot_ref = &window_[windowIndex(key)];
+  } else {
+    slot_ref = &sparse_.emplace(key, -1).first->second;
+  }
+  if (*slot_ref < 0) {
+    *slot_ref = static_cast<std::int32_t>(slots_.size());
+    slots_.push_back({key, 0.0f, 0.0f});
+  }
+  Slot& slot = slots_[*slot_ref];
+  if (value > slot.positive) slot.positive = value;
+  if (value < slot.negative) slot.negative = value;
+}
+
+// The rays traced for one beam: its axis and, where the cone is wider than a voxel, rays fanned
+// across the cone in the scan plane, at most one voxel apart at the far end.
+void ScanInserter::fanOf(const Beam& beam, double tan_half, std::vector<Eigen::Vector3d>* directions) const {
+  directions->clear();
+  const double resolution = tree_->getResolution();
+  const double half_width = traceLength(beam) * tan_half;
+  const int fan = (beam.across.isZero() || half_width <= resolution) ? 0 : static_cast<int>(std::ceil(half_width / resolution));
+  for (int k = -fan; k <= fan; ++k) {
+    const double t = fan ? tan_half * k / fan : 0.0;
+    directions->push_back((beam.direction + t * beam.across).normalized());
+  }
+}
+
+std::vector<ScanInserter::VoxelUpdate> ScanInserter::computeUpdates(const Eigen::Vector3d& origin,
+                                                                    const std::vector<Beam>& beams,
+                                                                    double half_angle) {
+  std::vector<VoxelUpdate> updates;
+  octomap::OcTreeKey origin_key;
+  if (!tree_->coordToKeyChecked(origin.x(), origin.y(), origin.z(), origin_key)) return updates;
+  const double tan_half = std::tan(half_angle);
+
+  // First pass: the key box of all ray ends (rays are straight, so the box of the origin and the
+  // ends holds every voxel they cross). Beams leaving the octree's key range are dropped.
+  std::vector<char> usable(beams.size(), 0);
+  std::vector<Eigen::Vector3d> fan;
+  KeyBox box;
+  box.add(origin_key);
+  for (std::size_t b = 0; b < beams.size(); ++b) {
+    fanOf(beams[b], tan_half, &fan);
+    KeyBox beam_box;
+    bool inside = true;
+    for (const Eigen::Vector3d& dir : {fan.front(), fan.back()}) {
+      const Eigen::Vector3d end = origin + dir * traceLength(beams[b]);
+      octomap::OcTreeKey key;
+      inside = inside && tree_->coordToKeyChecked(end.x(), end.y(), end.z(), key);
+      if (inside) beam_box.add(key);
+    }
+    if (!inside) continue;
+    usable[b] = 1;
+    box.add(beam_box);
+  }
+  prepareWindow(box.min, box.max);
+  slots_.clear();
+
+  // A voxel's centre is at most half its diagonal from any point inside it.
+  const double half_diagonal = 0.5 * std::sqrt(3.0) * tree_->getResolution();
+  const octomap::point3d o(origin.x(), origin.y(), origin.z());
+  for (std::size_t b = 0; b < beams.size(); ++b) {
+    if (!usable[b]) continue;
+    const Beam& beam = beams[b];
+    auto visit = [&](const octomap::OcTreeKey& key) {
+      const octomap::point3d c = tree_->keyToCoord(key);
+      const Eigen::Vector3d v(c.x() - origin.x(), c.y() - origin.y(), c.z() - origin.z());
+      const double along = std::max(0.0, v.dot(beam.direction));
+      const double lateral = std::max(0.0, (v - along * beam.direction).norm() - half_diagonal);
+      const double off_axis = along > 0.0 ? std::atan(lateral / along) : 0.0;
+      const float value = beam.hit ? model_.hitUpdate(beam.length, along, off_axis, half_angle)
+                                   : model_.noReturnUpdate(beam.length, along, off_axis, half_angle);
+      if (value != 0.0f) accumulate(key, value);
+    };
+    fanOf(beam, tan_half, &fan);
+    for (const Eigen::Vector3d& dir : fan) {
+      const Eigen::Vector3d far = origin + dir * traceLength(beam);
+      const octomap::point3d end(far.x(), far.y(), far.z());
+      tree_->computeRayKeys(o, end, ray_);  // excludes the end voxel
+      for (const octomap::OcTreeKey& key : ray_) visit(key);
+      visit(tree_->coordToKey(end));
+    }
+  }
+
+  updates.reserve(slots_.size());
+  for (const Slot& slot : slots_) {
+    const float value = slot.positive > 0.0f ? slot.positive : slot.negative;
+    if (value != 0.0f) updates.push_back({slot.key, value});
+    if (window_nx_ > 0) window_[windowIndex(slot.key)] = -1;
+  }
+  return updates;
+}
+
+InsertResult ScanInserter::apply(const std::vector<VoxelUpdate>& updates, InsertResult result) {
+  for (const VoxelUpdate& u : updates) {
+    tree_->updateNode(u.key, u.log_odds);
+    result.touched.add(u.key);
+  }
+  result.voxels_updated = updates.size();
+  return result;
+}
+
+}  // namespace octo_slice_mapper

@@ -1,0 +1,145 @@
+#include "octo_slice_mapper/sim/session.h"
+
+#include <cmath>
+
+namespace octo_slice_mapper {
+namespace sim {
+namespace {
+
+double wrapAngle(double a) { return std::atan2(std::sin(a), std::cos(a)); }
+
+// A motion primitive: turn in place (w != 0) or drive straight (v != 0) for `duration`.
+struct Motion {
+  double duration, v, w;
+};
+
+}  // namespace
+
+SessionSpec SessionSpec::officeTour() {
+  SessionSpec spec;
+  spec.waypoints = {{1.0, 1.0},  {2.45, 1.0}, {2.45, 4.5}, {1.5, 6.5},  {5.0, 7.0},  {5.0, 3.5},
+                    {2.45, 3.5}, {2.45, 1.0}, {6.45, 1.0}, {6.45, -2.0}, {8.0, -2.2}, {6.45, -1.5},
+                    {6.45, 1.0}, {9.45, 1.0}, {9.45, 4.0}, {12.5, 4.5}, {12.5, 7.0}, {8.0, 7.0},
+                    {8.0, 4.0},  {9.45, 3.5}, {9.45, 1.0}, {13.0, 1.0}, {1.0, 0.8}};
+  return spec;
+}
+
+SimulatedSession::SimulatedSession(const FloorPlan& plan, const SessionSpec& spec) : plan_(plan), spec_(spec) {
+  if (spec.waypoints.size() < 2) return;
+  std::vector<Motion> motions;
+  double yaw = std::atan2(spec.waypoints[1].y() - spec.waypoints[0].y(), spec.waypoints[1].x() - spec.waypoints[0].x());
+  const double start_yaw = yaw;
+  for (std::size_t k = 1; k < spec.waypoints.size(); ++k) {
+    const Eigen::Vector2d delta = spec.waypoints[k] - spec.waypoints[k - 1];
+    const double heading = std::atan2(delta.y(), delta.x());
+    const double turn = wrapAngle(heading - yaw);
+    if (std::abs(turn) > 1e-9) motions.push_back({std::abs(turn) / spec.angular_speed, 0.0, std::copysign(spec.angular_speed, turn)});
+    motions.push_back({delta.norm() / spec.linear_speed, spec.linear_speed, 0.0});
+    yaw = heading;
+  }
+  const double dt = 1.0 / spec.pose_rate_hz;
+  Pose2D pose{0.0, spec.waypoints[0].x(), spec.waypoints[0].y(), start_yaw, 0.0, 0.0};
+  poses_.push_back(pose);
+  std::size_t m = 0;
+  double left = motions.empty() ? 0.0 : motions[0].duration;
+  while (m < motions.size()) {
+    // Integrate exactly over dt, possibly across primitive boundaries.
+    double remaining = dt;
+    while (remaining > 1e-12 && m < motions.size()) {
+      const double step = std::min(remaining, left);
+      const Motion& mo = motions[m];
+      pose.x += mo.v * std::cos(pose.yaw) * step;
+      pose.y += mo.v * std::sin(pose.yaw) * step;
+      pose.yaw = wrapAngle(pose.yaw + mo.w * step);
+      pose.v = mo.v;
+      pose.w = mo.w;
+      remaining -= step;
+      left -= step;
+      if (left <= 1e-12 && ++m < motions.size()) left = motions[m].duration;
+    }
+    pose.t += dt - remaining;
+    poses_.push_back(pose);
+  }
+  poses_.back().v = poses_.back().w = 0.0;
+}
+
+Pose2D SimulatedSession::poseAt(double t) const {
+  if (poses_.empty()) return {};
+  if (t <= poses_.front().t) return poses_.front();
+  if (t >= poses_.back().t) return poses_.back();
+  const double dt = 1.0 / spec_.pose_rate_hz;
+  std::size_t k = std::min(poses_.size() - 2, static_cast<std::size_t>(t / dt));
+  while (k + 1 < poses_.size() && poses_[k + 1].t < t) ++k;
+  while (k > 0 && poses_[k].t > t) --k;
+  const Pose2D& a = poses_[k];
+  const Pose2D& b = poses_[k + 1];
+  const double s = (b.t > a.t) ? (t - a.t) / (b.t - a.t) : 0.0;
+  Pose2D p = a;
+  p.t = t;
+  p.x = a.x + s * (b.x - a.x);
+  p.y = a.y + s * (b.y - a.y);
+  p.yaw = wrapAngle(a.yaw + s * wrapAngle(b.yaw - a.yaw));
+  return p;
+}
+
+Eigen::Isometry3d SimulatedSession::laserPose(const Pose2D& base) const {
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translate(Eigen::Vector3d(base.x, base.y, 0.0));
+  pose.rotate(Eigen::AngleAxisd(base.yaw, Eigen::Vector3d::UnitZ()));
+  pose.translate(Eigen::Vector3d(spec_.lidar.mount_x, 0.0, spec_.lidar.mount_z));
+  return pose;
+}
+
+std::vector<double> SimulatedSession::scanTimes() const {
+  std::vector<double> times;
+  const double period = 1.0 / spec_.lidar.rate_hz;
+  for (double t = period; t <= duration(); t += period) times.push_back(t);
+  return times;
+}
+
+Scan SimulatedSession::scanAt(double t, std::mt19937* rng) const {
+  const LidarSpec& lidar = spec_.lidar;
+  Scan scan;
+  scan.stamp = t;
+  scan.sensor_pose = laserPose(poseAt(t));
+  scan.angle_min = lidar.angle_min;
+  scan.angle_increment = lidar.angle_increment;
+  scan.range_min = lidar.range_min;
+  scan.range_max = lidar.range_max;
+  scan.ranges.resize(static_cast<std::size_t>(lidar.beams));
+  const Eigen::Vector2d origin = scan.sensor_pose.translation().head<2>();
+  const double yaw = std::atan2(scan.sensor_pose.linear()(1, 0), scan.sensor_pose.linear()(0, 0));
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  for (int i = 0; i < lidar.beams; ++i) {
+    const double a = yaw + lidar.angle_min + i * static_cast<double>(lidar.angle_increment);
+    const double truth = plan_.castRay(origin, Eigen::Vector2d(std::cos(a), std::sin(a)), t);
+    const double u = uniform(*rng);
+    const double noise = gauss(*rng);
+    float r;
+    if (u < lidar.nan_probability) {
+      r = std::numeric_limits<float>::quiet_NaN();
+    } else if (u < lidar.nan_probability + lidar.dropout_probability) {
+      r = 0.0f;
+    } else if (u < lidar.nan_probability + lidar.dropout_probability + lidar.spurious_no_return_probability ||
+               truth >= lidar.range_max) {
+      r = lidar.range_max;
+    } else {
+      const double sigma = truth < 1.0 ? lidar.noise_sigma_near : lidar.noise_fraction_far * truth;
+      r = static_cast<float>(std::max(static_cast<double>(lidar.range_min), truth + sigma * noise));
+      if (r >= lidar.range_max) r = std::nextafter(lidar.range_max, 0.0f);
+    }
+    scan.ranges[static_cast<std::size_t>(i)] = r;
+  }
+  return scan;
+}
+
+std::vector<Scan> SimulatedSession::allScans() const {
+  std::mt19937 rng(spec_.seed);
+  std::vector<Scan> scans;
+  for (double t : scanTimes()) scans.push_back(scanAt(t, &rng));
+  return scans;
+}
+
+}  // namespace sim
+}  // namespace octo_slice_mapper

@@ -1,0 +1,122 @@
+#include "octo_slice_mapper/slice_grid.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace octo_slice_mapper {
+
+SliceGrid::SliceGrid(const octomap::OcTree& tree, const SliceOptions& options)
+    : tree_(tree), options_(options), resolution_(tree.getResolution()) {
+  if (!(options.min_z <= options.max_z)) throw std::invalid_argument("slice: min_z must be <= max_z");
+  octomap::OcTreeKey lo, hi;
+  if (!tree.coordToKeyChecked(0, 0, options.min_z, lo) || !tree.coordToKeyChecked(0, 0, options.max_z, hi)) {
+    throw std::invalid_argument("slice: z band outside the octree");
+  }
+  band_lo_ = lo[2];
+  band_hi_ = hi[2];
+}
+
+double SliceGrid::originX() const { return tree_.keyToCoord(origin_key_x_) - 0.5 * resolution_; }
+double SliceGrid::originY() const { return tree_.keyToCoord(origin_key_y_) - 0.5 * resolution_; }
+
+bool SliceGrid::cellOf(double x, double y, int* i, int* j) const {
+  if (width_ == 0) return false;
+  const int ci = static_cast<int>(std::floor((x - originX()) / resolution_));
+  const int cj = static_cast<int>(std::floor((y - originY()) / resolution_));
+  if (ci < 0 || cj < 0 || ci >= width_ || cj >= height_) return false;
+  *i = ci;
+  *j = cj;
+  return true;
+}
+
+std::int8_t SliceGrid::valueAt(double x, double y) const {
+  int i, j;
+  return cellOf(x, y, &i, &j) ? at(i, j) : kUnknownCell;
+}
+
+std::size_t SliceGrid::knownCells() const {
+  return static_cast<std::size_t>(
+      std::count_if(data_.begin(), data_.end(), [](std::int8_t v) { return v != kUnknownCell; }));
+}
+
+void SliceGrid::clear() {
+  width_ = height_ = 0;
+  data_.clear();
+}
+
+std::int8_t SliceGrid::columnValue(std::uint16_t kx, std::uint16_t ky) const {
+  double best = -1.0;
+  for (unsigned kz = band_lo_; kz <= band_hi_; ++kz) {
+    const octomap::OcTreeNode* node = tree_.search(octomap::OcTreeKey(kx, ky, static_cast<std::uint16_t>(kz)));
+    if (node) best = std::max(best, node->getOccupancy());
+  }
+  if (best < 0.0) return kUnknownCell;
+  return static_cast<std::int8_t>(std::lround(best * 100.0));
+}
+
+// Grows the grid (keeping its contents) so that it covers the key rectangle. Growth adds a
+// margin proportional to the current size so that a map growing at its edge is re-allocated
+// only O(log n) times.
+void SliceGrid::ensureCovers(std::uint16_t kx0, std::uint16_t ky0, std::uint16_t kx1, std::uint16_t ky1) {
+  if (width_ > 0 && kx0 >= origin_key_x_ && ky0 >= origin_key_y_ && kx1 < origin_key_x_ + width_ &&
+      ky1 < origin_key_y_ + height_) {
+    return;
+  }
+  int nx0 = kx0, ny0 = ky0, nx1 = kx1, ny1 = ky1;
+  if (width_ > 0) {
+    const int margin_x = std::max(16, width_ / 2), margin_y = std::max(16, height_ / 2);
+    const int ox0 = origin_key_x_, oy0 = origin_key_y_, ox1 = ox0 + width_ - 1, oy1 = oy0 + height_ - 1;
+    nx0 = kx0 < ox0 ? kx0 - margin_x : ox0;
+    ny0 = ky0 < oy0 ? ky0 - margin_y : oy0;
+    nx1 = kx1 > ox1 ? kx1 + margin_x : ox1;
+    ny1 = ky1 > oy1 ? ky1 + margin_y : oy1;
+  } else {
+    nx0 -= 16, ny0 -= 16, nx1 += 16, ny1 += 16;
+  }
+  nx0 = std::max(nx0, 0), ny0 = std::max(ny0, 0);
+  nx1 = std::min(nx1, 0xFFFF), ny1 = std::min(ny1, 0xFFFF);
+  const int new_w = nx1 - nx0 + 1, new_h = ny1 - ny0 + 1;
+  std::vector<std::int8_t> grown(std::size_t(new_w) * new_h, kUnknownCell);
+  for (int j = 0; j < height_; ++j) {
+    const int dst_j = origin_key_y_ + j - ny0;
+    std::copy_n(&data_[std::size_t(j) * width_], width_, &grown[std::size_t(dst_j) * new_w + (origin_key_x_ - nx0)]);
+  }
+  data_.swap(grown);
+  origin_key_x_ = static_cast<std::uint16_t>(nx0);
+  origin_key_y_ = static_cast<std::uint16_t>(ny0);
+  width_ = new_w;
+  height_ = new_h;
+}
+
+void SliceGrid::update(const KeyBox& box) {
+  if (box.empty() || box.max[2] < band_lo_ || box.min[2] > band_hi_) return;
+  ensureCovers(box.min[0], box.min[1], box.max[0], box.max[1]);
+  for (unsigned ky = box.min[1]; ky <= box.max[1]; ++ky) {
+    std::int8_t* row = &data_[std::size_t(ky - origin_key_y_) * width_];
+    for (unsigned kx = box.min[0]; kx <= box.max[0]; ++kx) {
+      row[kx - origin_key_x_] = columnValue(static_cast<std::uint16_t>(kx), static_cast<std::uint16_t>(ky));
+    }
+  }
+}
+
+void SliceGrid::rebuild() {
+  clear();
+  KeyBox box;
+  for (auto it = tree_.begin_leafs(), end = tree_.end_leafs(); it != end; ++it) {
+    // A pruned leaf spans several keys: include its whole extent.
+    const octomap::OcTreeKey k = it.getKey();
+    const unsigned span = 1u << (tree_.getTreeDepth() - it.getDepth());
+    const unsigned base_mask = ~(span - 1);
+    octomap::OcTreeKey lo(k[0] & base_mask, k[1] & base_mask, k[2] & base_mask);
+    if (lo[2] + span - 1 < band_lo_ || lo[2] > band_hi_) continue;
+    box.add(lo);
+    box.add(octomap::OcTreeKey(lo[0] + span - 1, lo[1] + span - 1, lo[2] + span - 1));
+  }
+  if (box.empty()) return;
+  box.min[2] = band_lo_;
+  box.max[2] = band_hi_;
+  update(box);
+}
+
+}  // namespace octo_slice_mapper

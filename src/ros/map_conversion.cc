@@ -1,0 +1,69 @@
+#include "ros/map_conversion.h"
+
+#include <algorithm>
+
+namespace octo_slice_mapper {
+namespace ros_adapter {
+
+void toOccupancyGrid(const SliceGrid& slice, const std::string& frame_id, const ros::Time& stamp,
+                     nav_msgs::OccupancyGrid* msg) {
+  msg->header.frame_id = frame_id;
+  msg->header.stamp = stamp;
+  msg->info.map_load_time = stamp;
+  msg->info.resolution = static_cast<float>(slice.resolution());
+  msg->info.width = static_cast<std::uint32_t>(slice.width());
+  msg->info.height = static_cast<std::uint32_t>(slice.height());
+  msg->info.origin.position.x = slice.width() ? slice.originX() : 0.0;
+  msg->info.origin.position.y = slice.height() ? slice.originY() : 0.0;
+  msg->info.origin.position.z = slice.options().min_z;
+  msg->info.origin.orientation.w = 1.0;
+  msg->data = slice.data();
+}
+
+visualization_msgs::MarkerArray occupiedVoxelMarkers(const octomap::OcTree& tree, const std::string& frame_id,
+                                                     const ros::Time& stamp) {
+  visualization_msgs::MarkerArray array;
+  visualization_msgs::Marker marker;
+  marker.header.frame_id = frame_id;
+  marker.header.stamp = stamp;
+  marker.ns = "occupied_voxels";
+  marker.id = 0;
+  marker.type = visualization_msgs::Marker::CUBE_LIST;
+  marker.action = visualization_msgs::Marker::ADD;
+  marker.pose.orientation.w = 1.0;
+  const double res = tree.getResolution();
+  marker.scale.x = marker.scale.y = marker.scale.z = res;
+  marker.color.a = 1.0;
+  double min_x, min_y, min_z, max_x, max_y, max_z;
+  tree.getMetricMin(min_x, min_y, min_z);
+  tree.getMetricMax(max_x, max_y, max_z);
+  const double z_span = std::max(res, max_z - min_z);
+  for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it) {
+    if (!tree.isNodeOccupied(*it)) continue;
+    // A pruned leaf stands for a block of voxels: emit each voxel so the cubes keep one size.
+    const double size = it.getSize();
+    const int n = std::max(1, static_cast<int>(std::lround(size / res)));
+    const double x0 = it.getX() - 0.5 * size + 0.5 * res, y0 = it.getY() - 0.5 * size + 0.5 * res,
+                 z0 = it.getZ() - 0.5 * size + 0.5 * res;
+    for (int i = 0; i < n; ++i) {
+      for (int j = 0; j < n; ++j) {
+        for (int k = 0; k < n; ++k) {
+          geometry_msgs::Point p;
+          p.x = x0 + i * res, p.y = y0 + j * res, p.z = z0 + k * res;
+          std_msgs::ColorRGBA c;
+          const double h = std::min(1.0, std::max(0.0, (p.z - min_z) / z_span));
+          c.r = static_cast<float>(h), c.g = static_cast<float>(0.3 + 0.4 * (1.0 - h)), c.b = static_cast<float>(1.0 - h);
+          c.a = 1.0f;
+          marker.points.push_back(p);
+          marker.colors.push_back(c);
+        }
+      }
+    }
+  }
+  if (marker.points.empty()) marker.action = visualization_msgs::Marker::DELETEALL;
+  array.markers.push_back(marker);
+  return array;
+}
+
+}  // namespace ros_adapter
+}  // namespace octo_slice_mapper

@@ -1,0 +1,210 @@
+#include "ros/mapper_node.h"
+
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+#include <pcl_conversions/pcl_conversions.h>
+#include <tf2_eigen/tf2_eigen.h>
+
+#include <boost/bind/bind.hpp>
+#include <sstream>
+
+#include "octo_slice_mapper/save_path.h"
+#include "ros/laser_scan_conversion.h"
+#include "ros/map_conversion.h"
+
+namespace octo_slice_mapper {
+namespace ros_adapter {
+
+MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
+    : nh_(nh),
+      pnh_(pnh),
+      options_(readNodeOptions(pnh)),
+      mapper_(readMapperOptions(pnh)),
+      tf_listener_(tf_buffer_),
+      started_(ros::WallTime::now()) {
+  if (!options_.map_file.empty()) {
+    std::string error;
+    if (mapper_.load(options_.map_file, &error)) {
+      ROS_INFO("resumed map %s (%zu leaves)", options_.map_file.c_str(), mapper_.tree().getNumLeafNodes());
+    } else {
+      ROS_ERROR("could not load ~map_file: %s; starting with an empty map", error.c_str());
+    }
+  }
+  map_pub_ = nh_.advertise<nav_msgs::OccupancyGrid>("map", 1, true);
+  metadata_pub_ = nh_.advertise<nav_msgs::MapMetaData>("map_metadata", 1, true);
+  markers_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("occupied_cells", 1, true);
+  save_srv_ = pnh_.advertiseService("save_map", &MapperNode::onSaveMap, this);
+  reset_srv_ = pnh_.advertiseService("reset", &MapperNode::onReset, this);
+
+  const uint32_t queue = static_cast<uint32_t>(std::max(1, options_.scan_queue_size));
+  scan_sub_.subscribe(nh_, "scan", queue);
+  scan_filter_ = std::make_unique<tf2_ros::MessageFilter<sensor_msgs::LaserScan>>(scan_sub_, tf_buffer_,
+                                                                                 options_.frame_id, queue, nh_);
+  scan_filter_->setTolerance(ros::Duration(options_.transform_tolerance));
+  scan_filter_->registerCallback(boost::bind(&MapperNode::onScan, this, boost::placeholders::_1));
+  scan_filter_->registerFailureCallback(boost::bind(&MapperNode::onTransformFailure<sensor_msgs::LaserScan>, this, boost::placeholders::_1, boost::placeholders::_2));
+
+  cloud_sub_.subscribe(nh_, "cloud_in", 5);
+  cloud_filter_ = std::make_unique<tf2_ros::MessageFilter<sensor_msgs::PointCloud2>>(cloud_sub_, tf_buffer_,
+                                                                                    options_.frame_id, 5, nh_);
+  cloud_filter_->registerCallback(boost::bind(&MapperNode::onCloud, this, boost::placeholders::_1));
+  cloud_filter_->registerFailureCallback(boost::bind(&MapperNode::onTransformFailure<sensor_msgs::PointCloud2>, this, boost::placeholders::_1, boost::placeholders::_2));
+
+  publish_timer_ = nh_.createTimer(ros::Duration(1.0 / std::max(0.1, options_.publish_rate)), &MapperNode::publish, this);
+  ROS_INFO("mapping in frame '%s' at %.3f m, slice z [%.2f, %.2f] m", options_.frame_id.c_str(),
+           mapper_.options().resolution, mapper_.options().slice.min_z, mapper_.options().slice.max_z);
+}
+
+void MapperNode::skip(const std::string& reason, const std::string& message) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    skipped_scans_[reason]++;
+  }
+  ROS_WARN_THROTTLE(5.0, "skipping scan (%s): %s", reason.c_str(), message.c_str());
+}
+
+template <typename M>
+void MapperNode::onTransformFailure(const boost::shared_ptr<const M>& msg, tf2_ros::FilterFailureReason reason) {
+  const char* why = reason == tf2_ros::filter_failure_reasons::OutTheBack ? "older than the tf buffer"
+                    : reason == tf2_ros::filter_failure_reasons::EmptyFrameID ? "empty frame_id"
+                                                                               : "no transform in time";
+  skip("no_transform", std::string(why) + ": " + options_.frame_id + " <- '" + msg->header.frame_id + "' at " +
+                           std::to_string(msg->header.stamp.toSec()));
+}
+
+bool MapperNode::sensorPose(const std_msgs::Header& header, Eigen::Isometry3d* pose) {
+  try {
+    *pose = tf2::transformToEigen(tf_buffer_.lookupTransform(options_.frame_id, header.frame_id, header.stamp));
+    return true;
+  } catch (const tf2::TransformException& e) {
+    skip("no_transform", e.what());
+    return false;
+  }
+}
+
+void MapperNode::onScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
+  Eigen::Isometry3d pose;
+  if (!sensorPose(msg->header, &pose)) return;
+  Scan scan;
+  const ScanRejection rejection = toCoreScan(*msg, pose, &scan);
+  if (rejection.rejected()) {
+    skip(rejection.key, rejection.message);
+    return;
+  }
+  const ros::WallTime start = ros::WallTime::now();
+  InsertResult result;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    result = mapper_.insert(scan);
+  }
+  if (!result.ok()) {
+    skip("invalid_scan", result.error);
+    return;
+  }
+  if (result.readings.skipped() > 0) {
+    ROS_WARN_THROTTLE(10.0, "scan readings skipped: %s", result.readings.summary().c_str());
+  }
+  afterInsert(result, (ros::WallTime::now() - start).toSec());
+}
+
+void MapperNode::onCloud(const sensor_msgs::PointCloud2::ConstPtr& msg) {
+  Eigen::Isometry3d pose;
+  if (!sensorPose(msg->header, &pose)) return;
+  pcl::PointCloud<pcl::PointXYZ> cloud;
+  pcl::fromROSMsg(*msg, cloud);
+  std::vector<Eigen::Vector3f> points;
+  points.reserve(cloud.size());
+  const Eigen::Isometry3f to_map = pose.cast<float>();
+  for (const pcl::PointXYZ& p : cloud) points.push_back(to_map * p.getVector3fMap());
+  const ros::WallTime start = ros::WallTime::now();
+  InsertResult result;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    result = mapper_.insertPoints(pose.translation(), points);
+  }
+  if (!result.ok()) {
+    skip("invalid_cloud", result.error);
+    return;
+  }
+  afterInsert(result, (ros::WallTime::now() - start).toSec());
+}
+
+void MapperNode::afterInsert(const InsertResult& result, double seconds) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  insert_seconds_ += seconds;
+  if (result.voxels_updated > 0) map_changed_ = true;
+}
+
+void MapperNode::publish(const ros::TimerEvent&) {
+  nav_msgs::OccupancyGrid grid;
+  visualization_msgs::MarkerArray markers;
+  const ros::Time now = ros::Time::now();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!map_changed_) return;
+    map_changed_ = false;
+    toOccupancyGrid(mapper_.slice(), options_.frame_id, now, &grid);
+    if (options_.publish_markers && markers_pub_.getNumSubscribers() > 0) {
+      markers = occupiedVoxelMarkers(mapper_.tree(), options_.frame_id, now);
+    }
+  }
+  map_pub_.publish(grid);
+  metadata_pub_.publish(grid.info);
+  if (!markers.markers.empty()) markers_pub_.publish(markers);
+}
+
+bool MapperNode::onSaveMap(SaveMap::Request& req, SaveMap::Response& res) {
+  std::string prefix, error;
+  if (!resolveSavePrefix(options_.maps_dir, req.prefix, options_.allow_any_path, &prefix, &error)) {
+    res.success = false;
+    res.message = error;
+    ROS_WARN("~save_map: %s", error.c_str());
+    return true;
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  res.success = mapper_.save(prefix, &res.files, &error);
+  res.message = res.success ? "saved " + prefix + ".{bt,ot,pgm,yaml,png}" : error;
+  if (res.success) {
+    ROS_INFO("~save_map: %s", res.message.c_str());
+  } else {
+    ROS_ERROR("~save_map: %s", res.message.c_str());
+  }
+  return true;
+}
+
+bool MapperNode::onReset(std_srvs::Empty::Request&, std_srvs::Empty::Response&) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  mapper_.reset();
+  map_changed_ = true;
+  ROS_INFO("map reset");
+  return true;
+}
+
+std::string MapperNode::summary() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const MapperStats& s = mapper_.stats();
+  std::ostringstream out;
+  std::uint64_t skipped = 0;
+  for (const auto& kv : skipped_scans_) skipped += kv.second;
+  out << "scans_inserted=" << s.scans_inserted << " scans_skipped=" << skipped + s.scans_rejected;
+  for (const auto& kv : skipped_scans_) out << " skipped_" << kv.first << '=' << kv.second;
+  out << " readings: " << s.readings.summary() << " voxels=" << mapper_.tree().getNumLeafNodes()
+      << " known_cells=" << mapper_.slice().knownCells() << " insert_ms_per_scan="
+      << (s.scans_inserted ? 1000.0 * insert_seconds_ / s.scans_inserted : 0.0)
+      << " wall_s=" << (ros::WallTime::now() - started_).toSec();
+  return out.str();
+}
+
+void MapperNode::shutdown() {
+  if (!options_.save_on_shutdown.empty()) {
+    SaveMap::Request req;
+    SaveMap::Response res;
+    req.prefix = options_.save_on_shutdown;
+    onSaveMap(req, res);
+    if (res.success) ROS_INFO("saved on shutdown: %s", res.message.c_str());
+  }
+  ROS_INFO("session summary: %s", summary().c_str());
+}
+
+}  // namespace ros_adapter
+}  // namespace octo_slice_mapper

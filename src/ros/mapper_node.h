@@ -1,0 +1,69 @@
+// The ROS face of the mapper: tf2-filtered scans in, OccupancyGrid / markers out, save and reset.
+// All mapping logic lives in the core Mapper; this class only converts and wires.
+#pragma once
+
+#include <message_filters/subscriber.h>
+#include <nav_msgs/OccupancyGrid.h>
+#include <ros/ros.h>
+#include <sensor_msgs/LaserScan.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <std_srvs/Empty.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/message_filter.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include "octo_slice_mapper/SaveMap.h"
+#include "octo_slice_mapper/mapper.h"
+#include "ros/node_parameters.h"
+
+namespace octo_slice_mapper {
+namespace ros_adapter {
+
+class MapperNode {
+ public:
+  MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh);
+  // Writes ~save_on_shutdown (if set) and logs the session summary.
+  void shutdown();
+  std::string summary() const;
+
+ private:
+  void onScan(const sensor_msgs::LaserScan::ConstPtr& msg);
+  void onCloud(const sensor_msgs::PointCloud2::ConstPtr& msg);
+  template <typename M>
+  void onTransformFailure(const boost::shared_ptr<const M>& msg, tf2_ros::FilterFailureReason reason);
+  bool sensorPose(const std_msgs::Header& header, Eigen::Isometry3d* pose);
+  void skip(const std::string& reason, const std::string& message);
+  void afterInsert(const InsertResult& result, double seconds);
+  void publish(const ros::TimerEvent&);
+  bool onSaveMap(SaveMap::Request& req, SaveMap::Response& res);
+  bool onReset(std_srvs::Empty::Request&, std_srvs::Empty::Response&);
+
+  ros::NodeHandle nh_, pnh_;
+  NodeOptions options_;
+  Mapper mapper_;
+  mutable std::mutex mutex_;  // guards mapper_ and the counters
+
+  tf2_ros::Buffer tf_buffer_;
+  tf2_ros::TransformListener tf_listener_;
+  message_filters::Subscriber<sensor_msgs::LaserScan> scan_sub_;
+  std::unique_ptr<tf2_ros::MessageFilter<sensor_msgs::LaserScan>> scan_filter_;
+  message_filters::Subscriber<sensor_msgs::PointCloud2> cloud_sub_;
+  std::unique_ptr<tf2_ros::MessageFilter<sensor_msgs::PointCloud2>> cloud_filter_;
+
+  ros::Publisher map_pub_, metadata_pub_, markers_pub_;
+  ros::ServiceServer save_srv_, reset_srv_;
+  ros::Timer publish_timer_;
+
+  bool map_changed_ = true;
+  std::map<std::string, std::uint64_t> skipped_scans_;  // whole scans dropped, per reason
+  double insert_seconds_ = 0.0;
+  ros::WallTime started_;
+};
+
+}  // namespace ros_adapter
+}  // namespace octo_slice_mapper

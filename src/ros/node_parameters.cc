@@ -1,0 +1,46 @@
+#include "ros/node_parameters.h"
+
+#include <ros/package.h>
+
+namespace octo_slice_mapper {
+namespace ros_adapter {
+
+MapperOptions readMapperOptions(const ros::NodeHandle& pnh) {
+  MapperOptions o;
+  pnh.param("resolution", o.resolution, o.resolution);
+  pnh.param("clamp_min", o.clamp_min, o.clamp_min);
+  pnh.param("clamp_max", o.clamp_max, o.clamp_max);
+  pnh.param("max_range", o.insert.max_range, o.insert.max_range);
+  pnh.param("inf_is_no_return", o.insert.readings.inf_is_no_return, o.insert.readings.inf_is_no_return);
+  InverseSensorModelOptions& m = o.insert.model;
+  pnh.param("beam_opening_angle", m.beam_opening_angle, m.beam_opening_angle);
+  pnh.param("cone_taper_fraction", m.cone_taper_fraction, m.cone_taper_fraction);
+  pnh.param("sigma_base", m.sigma_base, m.sigma_base);
+  pnh.param("sigma_per_meter", m.sigma_per_meter, m.sigma_per_meter);
+  pnh.param("sigma_angle_gain", m.sigma_angle_gain, m.sigma_angle_gain);
+  pnh.param("p_free", m.p_free, m.p_free);
+  pnh.param("p_occupied", m.p_occupied, m.p_occupied);
+  pnh.param("prior", m.prior, m.prior);
+  pnh.param("no_return_clear_distance", m.no_return_clear_distance, m.no_return_clear_distance);
+  pnh.param("slice_min_z", o.slice.min_z, o.slice.min_z);
+  pnh.param("slice_max_z", o.slice.max_z, o.slice.max_z);
+  return o;
+}
+
+NodeOptions readNodeOptions(const ros::NodeHandle& pnh) {
+  NodeOptions o;
+  pnh.param("frame_id", o.frame_id, o.frame_id);
+  pnh.param("publish_rate", o.publish_rate, o.publish_rate);
+  pnh.param("publish_markers", o.publish_markers, o.publish_markers);
+  pnh.param("transform_tolerance", o.transform_tolerance, o.transform_tolerance);
+  pnh.param("scan_queue_size", o.scan_queue_size, o.scan_queue_size);
+  pnh.param("map_file", o.map_file, o.map_file);
+  pnh.param("save_on_shutdown", o.save_on_shutdown, o.save_on_shutdown);
+  pnh.param("allow_any_path", o.allow_any_path, o.allow_any_path);
+  const std::string package = ros::package::getPath("octo_slice_mapper");
+  pnh.param("maps_dir", o.maps_dir, package.empty() ? std::string("maps") : package + "/maps");
+  return o;
+}
+
+}  // namespace ros_adapter
+}  // namespace octo_slice_mapper

@@ -1,0 +1,29 @@
+// ROS parameters -> core options structs. Every parameter and its default is listed in the README.
+#pragma once
+
+#include <ros/node_handle.h>
+
+#include <string>
+
+#include "octo_slice_mapper/mapper.h"
+
+namespace octo_slice_mapper {
+namespace ros_adapter {
+
+struct NodeOptions {
+  std::string frame_id = "odom";     // fixed frame the map is built in (the odometry is the pose oracle)
+  double publish_rate = 2.0;         // Hz, map / markers publishing when something changed
+  bool publish_markers = true;       // ~occupied_cells
+  double transform_tolerance = 0.1;  // s, how long a scan may wait for its transform
+  int scan_queue_size = 50;          // scans held while waiting for tf
+  std::string map_file;              // .bt/.ot to resume from
+  std::string save_on_shutdown;      // prefix written when the node stops ("" = don't)
+  std::string maps_dir;              // where ~save_map writes relative prefixes
+  bool allow_any_path = false;       // let ~save_map write outside maps_dir
+};
+
+MapperOptions readMapperOptions(const ros::NodeHandle& pnh);
+NodeOptions readNodeOptions(const ros::NodeHandle& pnh);
+
+}  // namespace ros_adapter
+}  // namespace octo_slice_mapper

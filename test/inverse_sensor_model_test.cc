@@ -1,0 +1,118 @@
+#include "octo_slice_mapper/inverse_sensor_model.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+using namespace octo_slice_mapper;
+
+namespace {
+const double kHalf = 0.01;  // cone half-angle used in these tests (rad)
+}
+
+TEST(InverseSensorModel, ShapeAlongTheBeam) {
+  InverseSensorModel model;
+  const double r = 2.0;
+  const double sigma = model.sigmaAt(r, 0.0, kHalf);
+  // Free valley well before the return: the full free log-odds.
+  EXPECT_NEAR(model.hitUpdate(r, 0.5, 0.0, kHalf), model.logOddsFree(), 1e-3);
+  EXPECT_NEAR(model.hitUpdate(r, 1.5, 0.0, kHalf), model.logOddsFree(), 1e-3);
+  // Peak at the return: the full occupied log-odds.
+  EXPECT_NEAR(model.hitUpdate(r, r, 0.0, kHalf), model.logOddsOccupied(), 0.05);
+  // No information beyond the return.
+  EXPECT_NEAR(model.hitUpdate(r, r + 2.0 * sigma, 0.0, kHalf), 0.0f, 1e-4);
+  EXPECT_EQ(model.hitUpdate(r, r + 2.01 * sigma, 0.0, kHalf), 0.0f);
+  EXPECT_EQ(model.hitUpdate(r, r + 1.0, 0.0, kHalf), 0.0f);
+  // Smooth: no jumps between samples sigma/50 apart anywhere from the sensor to behind the return.
+  float previous = model.hitUpdate(r, 0.0, 0.0, kHalf);
+  float max_step = 0.0f;
+  for (double d = sigma / 50; d < r + 3.0 * sigma; d += sigma / 50) {  // across the far cut-off too
+    const float v = model.hitUpdate(r, d, 0.0, kHalf);
+    max_step = std::max(max_step, std::abs(v - previous));
+    previous = v;
+  }
+  EXPECT_LT(max_step, 0.05f);
+  // Rising from valley to peak.
+  EXPECT_LT(model.hitUpdate(r, r - 3 * sigma, 0.0, kHalf), model.hitUpdate(r, r - sigma, 0.0, kHalf));
+  EXPECT_LT(model.hitUpdate(r, r - sigma, 0.0, kHalf), model.hitUpdate(r, r, 0.0, kHalf));
+  // Falling behind the return.
+  EXPECT_GT(model.hitUpdate(r, r + sigma, 0.0, kHalf), model.hitUpdate(r, r + 2 * sigma, 0.0, kHalf));
+}
+
+TEST(InverseSensorModel, PeakThicknessFollowsRangeUncertainty) {
+  InverseSensorModel model;
+  auto positiveWidth = [&](double r) {
+    double width = 0.0;
+    for (double d = 0.0; d < r + 1.0; d += 0.0005) {
+      if (model.hitUpdate(r, d, 0.0, kHalf) > 0.0f) width += 0.0005;
+    }
+    return width;
+  };
+  const double near = positiveWidth(1.0), far = positiveWidth(5.0);
+  EXPECT_GT(near, 0.0);
+  EXPECT_GT(far, 1.5 * near);
+  EXPECT_GT(model.sigmaAt(5.0, 0.0, kHalf), model.sigmaAt(1.0, 0.0, kHalf));
+}
+
+TEST(InverseSensorModel, AcrossTheCone) {
+  InverseSensorModel model;
+  const double r = 3.0, d = 1.0;
+  EXPECT_NEAR(model.hitUpdate(r, d, 0.0, kHalf), model.logOddsFree(), 1e-3);
+  // Outside the cone: nothing, for free space and for the return alike.
+  EXPECT_EQ(model.hitUpdate(r, d, kHalf, kHalf), 0.0f);
+  EXPECT_EQ(model.hitUpdate(r, d, 2 * kHalf, kHalf), 0.0f);
+  EXPECT_EQ(model.hitUpdate(r, r, 1.5 * kHalf, kHalf), 0.0f);
+  // Smooth, monotone fade towards the cone's edge.
+  float previous = model.hitUpdate(r, d, 0.0, kHalf);
+  for (double a = 0.0; a <= kHalf; a += kHalf / 100) {
+    const float v = model.hitUpdate(r, d, a, kHalf);
+    EXPECT_GE(v, previous - 1e-6f) << "free evidence must only weaken off axis (a=" << a << ")";
+    EXPECT_LT(std::abs(v - previous), 0.1f);
+    previous = v;
+  }
+  // Transitions widen with the angle off the axis.
+  EXPECT_GT(model.sigmaAt(r, 0.8 * kHalf, kHalf), model.sigmaAt(r, 0.0, kHalf));
+}
+
+TEST(InverseSensorModel, ConeIsNeverNarrowerThanTheScanStep) {
+  InverseSensorModelOptions o;
+  o.beam_opening_angle = 0.001;
+  InverseSensorModel model(o);
+  EXPECT_NEAR(model.halfAngleFor(0.0175), 0.5 * 0.0175, 1e-12);  // 1 deg scans tile the plane
+  EXPECT_NEAR(model.halfAngleFor(0.0001), 0.0005, 1e-12);
+}
+
+TEST(InverseSensorModel, NoReturnClearsButNeverMarksOccupied) {
+  InverseSensorModel model;
+  const double clear = 4.0;
+  for (double d = 0.0; d < 6.0; d += 0.01) {
+    EXPECT_LE(model.noReturnUpdate(clear, d, 0.0, kHalf), 0.0f) << d;
+  }
+  EXPECT_NEAR(model.noReturnUpdate(clear, 2.0, 0.0, kHalf), model.logOddsFree(), 1e-3);
+  EXPECT_EQ(model.noReturnUpdate(clear, 4.5, 0.0, kHalf), 0.0f);
+}
+
+TEST(InverseSensorModel, PriorIsSubtracted) {
+  InverseSensorModelOptions o;
+  o.prior = 0.3;
+  o.p_free = 0.2;
+  o.p_occupied = 0.8;
+  InverseSensorModel model(o);
+  EXPECT_NEAR(model.logOddsFree(), logOdds(0.2) - logOdds(0.3), 1e-6);
+  EXPECT_NEAR(model.logOddsOccupied(), logOdds(0.8) - logOdds(0.3), 1e-6);
+  // Where the model knows nothing it returns the prior: the update is exactly zero.
+  EXPECT_EQ(model.hitUpdate(2.0, 1.0, 1.0, kHalf), 0.0f);
+  EXPECT_EQ(model.hitUpdate(2.0, 3.0, 0.0, kHalf), 0.0f);
+}
+
+TEST(InverseSensorModel, RejectsInconsistentOptions) {
+  InverseSensorModelOptions o;
+  o.p_free = 0.6;
+  EXPECT_THROW(InverseSensorModel{o}, std::invalid_argument);
+  o = {};
+  o.p_occupied = 1.0;
+  EXPECT_THROW(InverseSensorModel{o}, std::invalid_argument);
+  o = {};
+  o.sigma_base = 0.0;
+  EXPECT_THROW(InverseSensorModel{o}, std::invalid_argument);
+}

@@ -1,0 +1,188 @@
+#include "octo_slice_mapper/map_io.h"
+
+#include <dirent.h>
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <fstream>
+#include <map>
+#include <set>
+
+#include "octo_slice_mapper/atomic_file.h"
+#include "octo_slice_mapper/mapper.h"
+#include "test_helpers.h"
+
+using namespace octo_slice_mapper;
+
+namespace {
+
+class MapIoTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    char tmpl[] = "/tmp/osm_map_io_XXXXXX";
+    ASSERT_NE(::mkdtemp(tmpl), nullptr);
+    dir_ = tmpl;
+    // A small map: a few scans of a wall 2 m ahead.
+    for (int k = 0; k < 5; ++k) {
+      const auto pose = test_support::laserPoseOnRobot(0.1 * k, 0, 0);
+      ASSERT_TRUE(mapper_.insert(test_support::makeScan(pose, -1.0f, 0.01f, std::vector<float>(201, 2.0f))).ok());
+    }
+  }
+  void TearDown() override { std::system(("rm -rf " + dir_).c_str()); }
+
+  std::vector<std::string> filesInDir() const {
+    std::vector<std::string> names;
+    DIR* d = ::opendir(dir_.c_str());
+    while (dirent* e = ::readdir(d)) {
+      const std::string n = e->d_name;
+      if (n != "." && n != "..") names.push_back(n);
+    }
+    ::closedir(d);
+    return names;
+  }
+
+  std::string dir_;
+  Mapper mapper_;
+};
+
+// Every max-depth key of every occupied leaf (pruned leaves expanded).
+std::set<octomap::OcTreeKey, bool (*)(const octomap::OcTreeKey&, const octomap::OcTreeKey&)> occupiedKeys(
+    const octomap::OcTree& tree) {
+  auto less = [](const octomap::OcTreeKey& a, const octomap::OcTreeKey& b) {
+    return std::tie(a[0], a[1], a[2]) < std::tie(b[0], b[1], b[2]);
+  };
+  std::set<octomap::OcTreeKey, bool (*)(const octomap::OcTreeKey&, const octomap::OcTreeKey&)> keys(less);
+  for (auto it = tree.begin_leafs(); it != tree.end_leafs(); ++it) {
+    if (!tree.isNodeOccupied(*it)) continue;
+    const unsigned span = 1u << (tree.getTreeDepth() - it.getDepth());
+    const octomap::OcTreeKey k = it.getKey();
+    for (unsigned i = 0; i < span; ++i)
+      for (unsigned j = 0; j < span; ++j)
+        for (unsigned l = 0; l < span; ++l)
+          keys.insert(octomap::OcTreeKey((k[0] & ~(span - 1)) + i, (k[1] & ~(span - 1)) + j, (k[2] & ~(span - 1)) + l));
+  }
+  return keys;
+}
+
+std::map<std::tuple<int, int, int, int>, float> leafLogOdds(const octomap::OcTree& tree) {
+  std::map<std::tuple<int, int, int, int>, float> leaves;
+  for (auto it = tree.begin_leafs(); it != tree.end_leafs(); ++it) {
+    const auto k = it.getKey();
+    leaves[{k[0], k[1], k[2], int(it.getDepth())}] = it->getLogOdds();
+  }
+  return leaves;
+}
+
+}  // namespace
+
+TEST_F(MapIoTest, BinaryRoundTripKeepsOccupiedLeavesAndLeavesTheLiveTreeAlone) {
+  const auto before = leafLogOdds(mapper_.tree());
+  const std::size_t nodes_before = mapper_.tree().size();
+  std::string error;
+  ASSERT_TRUE(saveBinaryTree(mapper_.tree(), dir_ + "/m.bt", &error)) << error;
+  EXPECT_EQ(leafLogOdds(mapper_.tree()), before) << "saving must not threshold the live tree";
+  EXPECT_EQ(mapper_.tree().size(), nodes_before) << "saving must not prune the live tree";
+
+  octomap::OcTree loaded(0.1);
+  std::ifstream in(dir_ + "/m.bt", std::ios::binary);
+  ASSERT_TRUE(loaded.readBinary(in)) << "OctoMap's own reader must accept the file";
+  EXPECT_DOUBLE_EQ(loaded.getResolution(), 0.05);
+  const auto expected = occupiedKeys(mapper_.tree());
+  EXPECT_GT(expected.size(), 10u);
+  EXPECT_EQ(occupiedKeys(loaded), expected);
+}
+
+TEST_F(MapIoTest, FullRoundTripKeepsLogOdds) {
+  std::string error;
+  ASSERT_TRUE(saveFullTree(mapper_.tree(), dir_ + "/m.ot", &error)) << error;
+  auto loaded = loadTree(dir_ + "/m.ot", &error);
+  ASSERT_TRUE(loaded) << error;
+  EXPECT_EQ(leafLogOdds(*loaded), leafLogOdds(mapper_.tree()));
+}
+
+TEST_F(MapIoTest, MapperResumesFromSavedMap) {
+  std::vector<std::string> written;
+  std::string error;
+  ASSERT_TRUE(mapper_.save(dir_ + "/set", &written, &error)) << error;
+  EXPECT_EQ(written.size(), 5u);
+  Mapper resumed;
+  ASSERT_TRUE(resumed.load(dir_ + "/set.ot", &error)) << error;
+  EXPECT_EQ(leafLogOdds(resumed.tree()), leafLogOdds(mapper_.tree()));
+  // The resumed slice is rebuilt from the tree: same value for every cell the live one has.
+  const SliceGrid& live = mapper_.slice();
+  for (int j = 0; j < live.height(); ++j) {
+    for (int i = 0; i < live.width(); ++i) {
+      const double x = live.originX() + (i + 0.5) * live.resolution(), y = live.originY() + (j + 0.5) * live.resolution();
+      ASSERT_EQ(resumed.slice().valueAt(x, y), live.at(i, j)) << x << ", " << y;
+    }
+  }
+}
+
+TEST_F(MapIoTest, PgmYamlFollowMapServerConventions) {
+  std::string error;
+  const GridImage grid = gridImageOf(mapper_.slice());
+  ASSERT_TRUE(savePgmYaml(grid, dir_ + "/m", &error)) << error;
+  GridImage back;
+  ASSERT_TRUE(loadPgmYaml(dir_ + "/m.yaml", &back, &error)) << error;
+  ASSERT_EQ(back.width, grid.width);
+  ASSERT_EQ(back.height, grid.height);
+  EXPECT_NEAR(back.origin_x, grid.origin_x, 1e-6);
+  EXPECT_NEAR(back.origin_y, grid.origin_y, 1e-6);
+  std::size_t occupied = 0, free_cells = 0;
+  for (std::size_t k = 0; k < grid.cells.size(); ++k) {
+    const int v = grid.cells[k];
+    const int expected = v < 0 ? -1 : v > 65 ? 100 : v < 19.6 ? 0 : -1;
+    ASSERT_EQ(back.cells[k], expected) << "cell " << k << " value " << v;
+    occupied += expected == 100;
+    free_cells += expected == 0;
+  }
+  EXPECT_GT(occupied, 10u);
+  EXPECT_GT(free_cells, 100u);
+  std::ifstream yaml(dir_ + "/m.yaml");
+  std::string text((std::istreambuf_iterator<char>(yaml)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("image: m.pgm"), std::string::npos);
+  EXPECT_NE(text.find("negate: 0"), std::string::npos);
+}
+
+TEST_F(MapIoTest, PngIsAValidPicture) {
+  std::string error;
+  ASSERT_TRUE(savePng(gridImageOf(mapper_.slice()), dir_ + "/m.png", &error)) << error;
+  std::string bytes;
+  ASSERT_TRUE(readFile(dir_ + "/m.png", &bytes, &error));
+  ASSERT_GT(bytes.size(), 100u);
+  EXPECT_EQ(bytes.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
+}
+
+TEST_F(MapIoTest, FailedSaveLeavesNothingHalfWritten) {
+  std::string error;
+  EXPECT_FALSE(saveBinaryTree(mapper_.tree(), dir_ + "/missing/m.bt", &error));
+  EXPECT_NE(error.find("missing"), std::string::npos);
+  // A good map already there survives a failing save of an empty map, and no temp files stay.
+  ASSERT_TRUE(writeFileAtomically(dir_ + "/m.pgm", "old", &error));
+  GridImage empty;
+  EXPECT_FALSE(savePgmYaml(empty, dir_ + "/m", &error));
+  std::string bytes;
+  ASSERT_TRUE(readFile(dir_ + "/m.pgm", &bytes, &error));
+  EXPECT_EQ(bytes, "old");
+  EXPECT_EQ(filesInDir(), std::vector<std::string>{"m.pgm"});
+}
+
+TEST_F(MapIoTest, CorruptOrWrongFilesAreRefusedWithAReason) {
+  std::string error;
+  ASSERT_TRUE(saveBinaryTree(mapper_.tree(), dir_ + "/good.bt", &error));
+  std::string bytes;
+  ASSERT_TRUE(readFile(dir_ + "/good.bt", &bytes, &error));
+  ASSERT_TRUE(writeFileAtomically(dir_ + "/truncated.bt", bytes.substr(0, bytes.size() / 2), &error));
+  ASSERT_TRUE(writeFileAtomically(dir_ + "/text.bt", "hello, not a map\n", &error));
+  for (const char* name : {"truncated.bt", "text.bt", "absent.bt"}) {
+    error.clear();
+    EXPECT_EQ(loadTree(dir_ + "/" + name, &error), nullptr) << name;
+    EXPECT_FALSE(error.empty()) << name;
+  }
+  Mapper keeps;
+  ASSERT_TRUE(keeps.insert(test_support::makeScan(test_support::laserPoseOnRobot(0, 0, 0), 0.0f, 0.01f, {1.0f})).ok());
+  const auto before = leafLogOdds(keeps.tree());
+  EXPECT_FALSE(keeps.load(dir_ + "/truncated.bt", &error));
+  EXPECT_EQ(leafLogOdds(keeps.tree()), before) << "a failed load keeps the current map";
+}

@@ -1,0 +1,159 @@
+// Integration test through a real roscore: tf + scans in, map out, services, bad input.
+#include <geometry_msgs/TransformStamped.h>
+#include <gtest/gtest.h>
+#include <nav_msgs/OccupancyGrid.h>
+#include <ros/ros.h>
+#include <sensor_msgs/LaserScan.h>
+#include <std_srvs/Empty.h>
+#include <sys/stat.h>
+#include <tf2_ros/static_transform_broadcaster.h>
+
+#include <cmath>
+#include <functional>
+#include <limits>
+
+#include "octo_slice_mapper/SaveMap.h"
+#include "octo_slice_mapper/map_io.h"
+
+namespace {
+
+const char kMapsDir[] = "/tmp/osm_rostest_maps";
+
+class MapperNodeTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    map_sub_ = nh_.subscribe("map", 5, &MapperNodeTest::onMap, this);
+    scan_pub_ = nh_.advertise<sensor_msgs::LaserScan>("scan", 20);
+    geometry_msgs::TransformStamped odom_base, base_laser;
+    odom_base.header.frame_id = "odom";
+    odom_base.child_frame_id = "base_link";
+    odom_base.transform.rotation.w = 1.0;
+    base_laser.header.frame_id = "base_link";
+    base_laser.child_frame_id = "laser";
+    base_laser.transform.translation.x = 0.10;
+    base_laser.transform.translation.z = 0.26;
+    base_laser.transform.rotation.w = 1.0;
+    odom_base.header.stamp = base_laser.header.stamp = ros::Time::now();
+    static_tf_.sendTransform(std::vector<geometry_msgs::TransformStamped>{odom_base, base_laser});
+    ASSERT_TRUE(waitFor([this] { return scan_pub_.getNumSubscribers() > 0; }, 20.0)) << "mapper_node did not subscribe";
+  }
+
+  void onMap(const nav_msgs::OccupancyGrid::ConstPtr& msg) { map_ = msg; }
+
+  bool waitFor(const std::function<bool()>& condition, double seconds) {
+    const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(seconds);
+    while (ros::ok() && ros::WallTime::now() < deadline) {
+      ros::spinOnce();
+      if (condition()) return true;
+      ros::WallDuration(0.02).sleep();
+    }
+    return false;
+  }
+
+  // A 181-beam half-circle scan; `range_of(angle)` gives each reading.
+  sensor_msgs::LaserScan scan(const std::function<float(double)>& range_of, const std::string& frame = "laser") {
+    sensor_msgs::LaserScan msg;
+    msg.header.frame_id = frame;
+    msg.header.stamp = ros::Time::now();
+    msg.angle_min = -M_PI / 2;
+    msg.angle_increment = M_PI / 180;
+    msg.angle_max = M_PI / 2;
+    msg.range_min = 0.02f;
+    msg.range_max = 5.6f;
+    for (int i = 0; i <= 180; ++i) msg.ranges.push_back(range_of(msg.angle_min + i * msg.angle_increment));
+    return msg;
+  }
+
+  int cellAt(double x, double y) const {
+    if (!map_) return -2;
+    const auto& info = map_->info;
+    const int i = static_cast<int>(std::floor((x - info.origin.position.x) / info.resolution));
+    const int j = static_cast<int>(std::floor((y - info.origin.position.y) / info.resolution));
+    if (i < 0 || j < 0 || i >= int(info.width) || j >= int(info.height)) return -1;
+    return map_->data[std::size_t(j) * info.width + i];
+  }
+
+  // A wall across x = 0.10 + d (laser frame x = d) seen by the beams within +-30 deg.
+  static float wallAt(double d, double angle) {
+    return std::abs(angle) < M_PI / 6 ? static_cast<float>(d / std::cos(angle)) : 5.6f;
+  }
+
+  ros::NodeHandle nh_;
+  ros::Subscriber map_sub_;
+  ros::Publisher scan_pub_;
+  tf2_ros::StaticTransformBroadcaster static_tf_;
+  nav_msgs::OccupancyGrid::ConstPtr map_;
+};
+
+TEST_F(MapperNodeTest, ScansBecomeAMapWithTheExpectedCells) {
+  for (int k = 0; k < 5; ++k) {
+    scan_pub_.publish(scan([](double a) { return wallAt(2.0, a); }));
+    ros::WallDuration(0.05).sleep();
+  }
+  // Wall at x = 2.10 (laser 0.10 ahead of the base): occupied; the space before it free.
+  ASSERT_TRUE(waitFor([this] { return cellAt(2.11, 0.0) > 50 && cellAt(1.0, 0.0) >= 0; }, 20.0))
+      << "no map with the wall arrived; wall cell " << cellAt(2.11, 0.0);
+  EXPECT_LT(cellAt(1.0, 0.0), 50);
+  EXPECT_LT(cellAt(1.5, 0.3), 50);
+  EXPECT_EQ(cellAt(3.0, 0.0), -1) << "nothing is known behind the wall";
+  EXPECT_EQ(map_->header.frame_id, "odom");
+}
+
+TEST_F(MapperNodeTest, BadScansDoNotStopTheNode) {
+  scan_pub_.publish(scan([](double) { return std::numeric_limits<float>::quiet_NaN(); }));
+  scan_pub_.publish(scan([](double a) { return wallAt(1.0, a); }, "frame_nobody_publishes"));
+  auto broken = scan([](double a) { return wallAt(1.0, a); });
+  broken.intensities.assign(3, 1.0f);
+  scan_pub_.publish(broken);
+  ros::WallDuration(0.3).sleep();
+  // The node is alive and still mapping: a wall at 3.0 m now appears.
+  for (int k = 0; k < 5; ++k) {
+    scan_pub_.publish(scan([](double a) { return wallAt(3.0, a); }));
+    ros::WallDuration(0.05).sleep();
+  }
+  ASSERT_TRUE(waitFor([this] { return cellAt(3.11, 0.0) > 50; }, 20.0)) << "mapping stopped after bad scans";
+  EXPECT_NE(cellAt(1.11, 0.0), 100) << "the scans refused for bad structure must not have been inserted";
+}
+
+TEST_F(MapperNodeTest, SaveMapWritesLoadableFiles) {
+  ::mkdir(kMapsDir, 0755);
+  scan_pub_.publish(scan([](double a) { return wallAt(2.0, a); }));
+  ros::WallDuration(0.3).sleep();
+  octo_slice_mapper::SaveMap srv;
+  srv.request.prefix = "rostest_map";
+  ASSERT_TRUE(ros::service::waitForService("mapper_node/save_map", 10000));
+  ASSERT_TRUE(ros::service::call("mapper_node/save_map", srv));
+  ASSERT_TRUE(srv.response.success) << srv.response.message;
+  EXPECT_EQ(srv.response.files.size(), 5u);
+  std::string error;
+  auto tree = octo_slice_mapper::loadTree(std::string(kMapsDir) + "/rostest_map.bt", &error);
+  ASSERT_TRUE(tree) << error;
+  EXPECT_GT(tree->getNumLeafNodes(), 10u);
+  octo_slice_mapper::GridImage grid;
+  ASSERT_TRUE(octo_slice_mapper::loadPgmYaml(std::string(kMapsDir) + "/rostest_map.yaml", &grid, &error)) << error;
+  EXPECT_GT(grid.width, 10);
+
+  srv.request.prefix = "../escaped";
+  ASSERT_TRUE(ros::service::call("mapper_node/save_map", srv));
+  EXPECT_FALSE(srv.response.success);
+  EXPECT_NE(srv.response.message.find("outside maps_dir"), std::string::npos) << srv.response.message;
+}
+
+TEST_F(MapperNodeTest, ResetClearsTheMap) {
+  ASSERT_TRUE(waitFor([this] { return map_ && cellAt(2.11, 0.0) > 50; }, 20.0));
+  std_srvs::Empty empty;
+  ASSERT_TRUE(ros::service::call("mapper_node/reset", empty));
+  ASSERT_TRUE(waitFor([this] { return map_ && map_->data.empty(); }, 20.0)) << "map not cleared";
+  // And it maps again afterwards.
+  scan_pub_.publish(scan([](double a) { return wallAt(2.0, a); }));
+  ASSERT_TRUE(waitFor([this] { return cellAt(2.11, 0.0) > 50; }, 20.0));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ::testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "mapper_node_rostest");
+  ros::NodeHandle nh;
+  return RUN_ALL_TESTS();
+}

@@ -1,0 +1,49 @@
+#include "octo_slice_mapper/save_path.h"
+
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+using namespace octo_slice_mapper;
+
+class SavePathTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    char tmpl[] = "/tmp/osm_save_path_XXXXXX";
+    ASSERT_NE(::mkdtemp(tmpl), nullptr);
+    root_ = tmpl;
+    maps_ = root_ + "/maps";
+    ::mkdir(maps_.c_str(), 0755);
+    ::mkdir((maps_ + "/sub").c_str(), 0755);
+    ::mkdir((root_ + "/elsewhere").c_str(), 0755);
+    ASSERT_EQ(::symlink((root_ + "/elsewhere").c_str(), (maps_ + "/escape").c_str()), 0);
+  }
+  void TearDown() override { std::system(("rm -rf " + root_).c_str()); }
+  std::string root_, maps_;
+};
+
+TEST_F(SavePathTest, RelativeAndInsidePathsAreAccepted) {
+  std::string resolved, error;
+  ASSERT_TRUE(resolveSavePrefix(maps_, "demo", false, &resolved, &error)) << error;
+  EXPECT_EQ(resolved, maps_ + "/demo");
+  ASSERT_TRUE(resolveSavePrefix(maps_, "sub/run1", false, &resolved, &error)) << error;
+  EXPECT_EQ(resolved, maps_ + "/sub/run1");
+  ASSERT_TRUE(resolveSavePrefix(maps_, maps_ + "/abs", false, &resolved, &error)) << error;
+}
+
+TEST_F(SavePathTest, EscapesAreRefused) {
+  std::string resolved, error;
+  EXPECT_FALSE(resolveSavePrefix(maps_, "../outside", false, &resolved, &error));
+  EXPECT_NE(error.find("outside maps_dir"), std::string::npos) << error;
+  EXPECT_FALSE(resolveSavePrefix(maps_, "/tmp/x", false, &resolved, &error));
+  EXPECT_FALSE(resolveSavePrefix(maps_, "escape/x", false, &resolved, &error)) << "symlink out of maps_dir";
+  EXPECT_FALSE(resolveSavePrefix(maps_, "sub/..", false, &resolved, &error));
+  EXPECT_FALSE(resolveSavePrefix(maps_, "", false, &resolved, &error));
+  EXPECT_FALSE(resolveSavePrefix(maps_, "nofolder/x", false, &resolved, &error));
+}
+
+TEST_F(SavePathTest, AllowAnyPathLiftsTheFence) {
+  std::string resolved, error;
+  ASSERT_TRUE(resolveSavePrefix(maps_, root_ + "/elsewhere/x", true, &resolved, &error)) << error;
+  EXPECT_EQ(resolved, root_ + "/elsewhere/x");
+}

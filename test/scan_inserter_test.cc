@@ -1,0 +1,173 @@
+#include "octo_slice_mapper/scan_inserter.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "test_helpers.h"
+
+using namespace octo_slice_mapper;
+using octo_slice_mapper::test_support::laserPoseOnRobot;
+using octo_slice_mapper::test_support::makeScan;
+
+namespace {
+
+const octomap::OcTreeNode* nodeAt(const octomap::OcTree& tree, double x, double y, double z) {
+  return tree.search(x, y, z);
+}
+
+}  // namespace
+
+TEST(ScanInserter, OneBeamIntoAnEmptyOctree) {
+  octomap::OcTree tree(0.05);
+  ScanInserter inserter(&tree, InsertOptions{});
+  // Robot at the origin facing +x: the laser sits at (0.10, 0, 0.26); one beam straight ahead reads 2.0 m.
+  const InsertResult result = inserter.insert(makeScan(laserPoseOnRobot(0, 0, 0), 0.0f, 0.01f, {2.0f}));
+  ASSERT_TRUE(result.ok()) << result.error;
+  EXPECT_EQ(result.readings[ReadingKind::kHit], 1u);
+  const double z = 0.26, hit_x = 2.10;
+  // Free voxels along the ray at the laser height.
+  for (double x = 0.15; x < hit_x - 0.15; x += 0.05) {
+    const auto* n = nodeAt(tree, x, 0.0, z);
+    ASSERT_NE(n, nullptr) << "x=" << x;
+    EXPECT_LT(n->getLogOdds(), 0.0f) << "x=" << x;
+  }
+  // Occupied at the return.
+  const auto* hit = nodeAt(tree, hit_x, 0.0, z);
+  ASSERT_NE(hit, nullptr);
+  EXPECT_GT(hit->getLogOdds(), 0.0f);
+  // Nothing beyond it, nothing above or below the ray.
+  for (double x = hit_x + 0.15; x < 4.0; x += 0.05) EXPECT_EQ(nodeAt(tree, x, 0.0, z), nullptr) << "x=" << x;
+  EXPECT_EQ(nodeAt(tree, 1.0, 0.0, z + 0.10), nullptr);
+  EXPECT_EQ(nodeAt(tree, 1.0, 0.0, z - 0.10), nullptr);
+  EXPECT_EQ(nodeAt(tree, 1.0, 0.2, z), nullptr) << "outside the beam's cone";
+  // The touched box covers the ray.
+  EXPECT_LE(tree.keyToCoord(result.touched.min[0]), 0.15);
+  EXPECT_GE(tree.keyToCoord(result.touched.max[0]), hit_x);
+}
+
+TEST(ScanInserter, TiltedRobotTiltsTheRays) {
+  octomap::OcTree tree(0.05);
+  ScanInserter inserter(&tree, InsertOptions{});
+  const double pitch = 10.0 * M_PI / 180.0;  // nose down (positive pitch about y points +x downwards)
+  const Eigen::Isometry3d pose = laserPoseOnRobot(0, 0, 0, pitch);
+  ASSERT_TRUE(inserter.insert(makeScan(pose, 0.0f, 0.01f, {2.0f})).ok());
+  const Eigen::Vector3d hit = pose * Eigen::Vector3d(2.0, 0.0, 0.0);
+  EXPECT_LT(hit.z(), 0.0);
+  const auto* n = nodeAt(tree, hit.x(), hit.y(), hit.z());
+  ASSERT_NE(n, nullptr);
+  EXPECT_GT(n->getLogOdds(), 0.0f);
+  EXPECT_EQ(nodeAt(tree, hit.x(), hit.y(), 0.26), nullptr) << "a level ray would have ended here";
+}
+
+TEST(ScanInserter, EachVoxelUpdatedOncePerScan) {
+  octomap::OcTree tree(0.05);
+  ScanInserter inserter(&tree, InsertOptions{});
+  // 200 beams in practically the same direction all cross the same voxels.
+  const Scan scan = makeScan(laserPoseOnRobot(0, 0, 0), 0.0f, 1e-6f, std::vector<float>(200, 2.0f));
+  ASSERT_TRUE(inserter.insert(scan).ok());
+  const auto* free_voxel = nodeAt(tree, 1.0, 0.0, 0.26);
+  ASSERT_NE(free_voxel, nullptr);
+  EXPECT_NEAR(free_voxel->getLogOdds(), inserter.model().logOddsFree(), 1e-4);
+}
+
+TEST(ScanInserter, NeighbouringBeamDoesNotEraseAReturn) {
+  octomap::OcTree tree(0.05);
+  InsertOptions options;
+  ScanInserter inserter(&tree, options);
+  // Two adjacent beams: the first returns at 1.0 m, the second passes just beside it to 3.0 m.
+  const float inc = 0.001f;
+  const Scan scan = makeScan(laserPoseOnRobot(0, 0, 0), 0.0f, inc, {1.02f, 3.0f});
+  ASSERT_TRUE(inserter.insert(scan).ok());
+  const Eigen::Vector3d first_hit = scan.sensor_pose * Eigen::Vector3d(1.02, 0.0, 0.0);
+  const Eigen::Vector3d second_near = scan.sensor_pose * (1.02 * Eigen::Vector3d(std::cos(inc), std::sin(inc), 0.0));
+  octomap::OcTreeKey k1, k2;
+  ASSERT_TRUE(tree.coordToKeyChecked(octomap::point3d(first_hit.x(), first_hit.y(), first_hit.z()), k1));
+  ASSERT_TRUE(tree.coordToKeyChecked(octomap::point3d(second_near.x(), second_near.y(), second_near.z()), k2));
+  ASSERT_EQ(k1, k2) << "test set-up: the second beam must cross the first beam's return voxel";
+  const auto* n = tree.search(k1);
+  ASSERT_NE(n, nullptr);
+  EXPECT_GT(n->getLogOdds(), 0.0f);
+}
+
+TEST(ScanInserter, ClampingBoundsTheLogOdds) {
+  octomap::OcTree tree(0.05);
+  tree.setClampingThresMin(0.12);
+  tree.setClampingThresMax(0.97);
+  ScanInserter inserter(&tree, InsertOptions{});
+  const Scan scan = makeScan(laserPoseOnRobot(0, 0, 0), -0.1f, 0.005f, std::vector<float>(41, 2.0f));
+  for (int i = 0; i < 100; ++i) ASSERT_TRUE(inserter.insert(scan).ok());
+  const auto* occupied = nodeAt(tree, 2.10, 0.0, 0.26);
+  const auto* free_voxel = nodeAt(tree, 1.0, 0.0, 0.26);
+  ASSERT_NE(occupied, nullptr);
+  ASSERT_NE(free_voxel, nullptr);
+  EXPECT_FLOAT_EQ(occupied->getLogOdds(), tree.getClampingThresMaxLog());
+  EXPECT_FLOAT_EQ(free_voxel->getLogOdds(), tree.getClampingThresMinLog());
+  // Clamping is what lets a person who walked away fade: a few free observations turn it free again.
+  const Scan person_gone = makeScan(laserPoseOnRobot(0, 0, 0), -0.1f, 0.005f, std::vector<float>(41, 4.0f));
+  for (int i = 0; i < 12; ++i) ASSERT_TRUE(inserter.insert(person_gone).ok());
+  EXPECT_LT(nodeAt(tree, 2.10, 0.0, 0.26)->getLogOdds(), 0.0f);
+}
+
+TEST(ScanInserter, InvalidReadingsAreCountedAndSkipped) {
+  octomap::OcTree tree(0.05);
+  ScanInserter inserter(&tree, InsertOptions{});
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  // Beams 90 deg apart, one per kind.
+  const Scan scan = makeScan(laserPoseOnRobot(0, 0, 0), 0.0f, float(M_PI / 2), {nan, inf, -1.0f, 0.01f}, 0.02f, 5.6f);
+  const InsertResult result = inserter.insert(scan);
+  ASSERT_TRUE(result.ok());
+  EXPECT_EQ(result.readings[ReadingKind::kNaN], 1u);
+  EXPECT_EQ(result.readings[ReadingKind::kInfinite], 1u);
+  EXPECT_EQ(result.readings[ReadingKind::kNegative], 1u);
+  EXPECT_EQ(result.readings[ReadingKind::kBelowMin], 1u);
+  EXPECT_EQ(result.voxels_updated, 0u);
+  EXPECT_EQ(tree.size(), 0u);
+}
+
+TEST(ScanInserter, NoReturnClearsWithoutMarkingOccupied) {
+  octomap::OcTree tree(0.05);
+  InsertOptions options;
+  options.model.no_return_clear_distance = 3.0;
+  ScanInserter inserter(&tree, options);
+  const InsertResult result = inserter.insert(makeScan(laserPoseOnRobot(0, 0, 0), 0.0f, 0.01f, {5.6f}));
+  ASSERT_TRUE(result.ok());
+  EXPECT_EQ(result.readings[ReadingKind::kNoReturn], 1u);
+  std::size_t free_leaves = 0;
+  for (auto it = tree.begin_leafs(); it != tree.end_leafs(); ++it) {
+    EXPECT_LE(it->getLogOdds(), 0.0f);
+    EXPECT_LT(it.getX(), 0.10 + 3.0 + 0.3);
+    ++free_leaves;
+  }
+  EXPECT_GT(free_leaves, 40u);
+}
+
+TEST(ScanInserter, RejectedScanLeavesTheMapUntouched) {
+  octomap::OcTree tree(0.05);
+  ScanInserter inserter(&tree, InsertOptions{});
+  Scan scan = makeScan(laserPoseOnRobot(0, 0, 0), 0.0f, 0.0f, {2.0f});
+  const InsertResult result = inserter.insert(scan);
+  EXPECT_FALSE(result.ok());
+  EXPECT_EQ(tree.size(), 0u);
+}
+
+TEST(ScanInserter, MaxRangeCutsLongReturns) {
+  octomap::OcTree tree(0.05);
+  InsertOptions options;
+  options.max_range = 1.0;
+  ScanInserter inserter(&tree, options);
+  ASSERT_TRUE(inserter.insert(makeScan(laserPoseOnRobot(0, 0, 0), 0.0f, 0.01f, {3.0f})).ok());
+  for (auto it = tree.begin_leafs(); it != tree.end_leafs(); ++it) EXPECT_LE(it->getLogOdds(), 0.0f);
+  EXPECT_EQ(nodeAt(tree, 3.10, 0.0, 0.26), nullptr);
+}
+
+TEST(ScanInserter, PointCloudUsesTheSameModel) {
+  octomap::OcTree tree(0.05);
+  ScanInserter inserter(&tree, InsertOptions{});
+  const Eigen::Vector3d origin(0.0, 0.0, 0.5);
+  const InsertResult result = inserter.insertPoints(origin, {Eigen::Vector3f(2.0f, 0.0f, 0.5f)}, 0.005);
+  ASSERT_TRUE(result.ok());
+  EXPECT_GT(nodeAt(tree, 2.0, 0.0, 0.5)->getLogOdds(), 0.0f);
+  EXPECT_NEAR(nodeAt(tree, 1.0, 0.0, 0.5)->getLogOdds(), inserter.model().logOddsFree(), 1e-4);
+}

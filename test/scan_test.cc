@@ -1,0 +1,63 @@
+#include "octo_slice_mapper/scan.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+using namespace octo_slice_mapper;
+
+TEST(ClassifyReading, EachKind) {
+  const ReadingPolicy policy;
+  EXPECT_EQ(classifyReading(1.0f, 0.1f, 5.0f, policy), ReadingKind::kHit);
+  EXPECT_EQ(classifyReading(5.0f, 0.1f, 5.0f, policy), ReadingKind::kNoReturn);
+  EXPECT_EQ(classifyReading(81.83f, 0.1f, 5.0f, policy), ReadingKind::kNoReturn);
+  EXPECT_EQ(classifyReading(std::nanf(""), 0.1f, 5.0f, policy), ReadingKind::kNaN);
+  EXPECT_EQ(classifyReading(std::numeric_limits<float>::infinity(), 0.1f, 5.0f, policy), ReadingKind::kInfinite);
+  EXPECT_EQ(classifyReading(-std::numeric_limits<float>::infinity(), 0.1f, 5.0f, policy), ReadingKind::kInfinite);
+  EXPECT_EQ(classifyReading(-0.5f, 0.1f, 5.0f, policy), ReadingKind::kNegative);
+  EXPECT_EQ(classifyReading(0.0f, 0.1f, 5.0f, policy), ReadingKind::kBelowMin);
+  EXPECT_EQ(classifyReading(0.05f, 0.1f, 5.0f, policy), ReadingKind::kBelowMin);
+}
+
+TEST(ClassifyReading, Rep117InfinityAsNoReturnWhenAsked) {
+  ReadingPolicy policy;
+  policy.inf_is_no_return = true;
+  EXPECT_EQ(classifyReading(std::numeric_limits<float>::infinity(), 0.1f, 5.0f, policy), ReadingKind::kNoReturn);
+  EXPECT_EQ(classifyReading(-std::numeric_limits<float>::infinity(), 0.1f, 5.0f, policy), ReadingKind::kInfinite);
+}
+
+TEST(ReadingCounts, SkippedCountsOnlyInvalidReadings) {
+  ReadingCounts c;
+  c[ReadingKind::kHit] = 10;
+  c[ReadingKind::kNoReturn] = 3;
+  c[ReadingKind::kNaN] = 2;
+  c[ReadingKind::kNegative] = 1;
+  EXPECT_EQ(c.skipped(), 3u);
+  ReadingCounts d = c;
+  d += c;
+  EXPECT_EQ(d[ReadingKind::kHit], 20u);
+  EXPECT_NE(c.summary().find("nan=2"), std::string::npos);
+}
+
+TEST(ValidateScanHeader, RejectsStructuralProblems) {
+  Scan scan;
+  scan.angle_increment = 0.01f;
+  scan.range_min = 0.1f;
+  scan.range_max = 5.0f;
+  EXPECT_FALSE(validateScanHeader(scan).empty()) << "empty scan";
+  scan.ranges.assign(10, 1.0f);
+  EXPECT_TRUE(validateScanHeader(scan).empty());
+  Scan zero_inc = scan;
+  zero_inc.angle_increment = 0.0f;
+  EXPECT_FALSE(validateScanHeader(zero_inc).empty());
+  Scan bad_limits = scan;
+  bad_limits.range_max = 0.05f;
+  EXPECT_FALSE(validateScanHeader(bad_limits).empty());
+  Scan huge = scan;
+  huge.ranges.assign(1000000, 1.0f);
+  EXPECT_FALSE(validateScanHeader(huge).empty());
+  Scan bad_pose = scan;
+  bad_pose.sensor_pose.translation().x() = std::nan("");
+  EXPECT_FALSE(validateScanHeader(bad_pose).empty());
+}

@@ -1,0 +1,74 @@
+// The whole simulated TurtleBot session mapped in-process, scored against the floor plan.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+
+#include "octo_slice_mapper/map_evaluation.h"
+#include "octo_slice_mapper/mapper.h"
+#include "octo_slice_mapper/sim/session.h"
+
+using namespace octo_slice_mapper;
+
+class SimulatedSessionTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    session_ = new sim::SimulatedSession(sim::FloorPlan::office(), sim::SessionSpec::officeTour());
+    mapper_ = new Mapper();
+    for (const Scan& scan : session_->allScans()) {
+      const InsertResult r = mapper_->insert(scan);
+      ASSERT_TRUE(r.ok()) << r.error;
+    }
+  }
+  static void TearDownTestSuite() {
+    delete mapper_;
+    delete session_;
+  }
+  static sim::SimulatedSession* session_;
+  static Mapper* mapper_;
+};
+sim::SimulatedSession* SimulatedSessionTest::session_ = nullptr;
+Mapper* SimulatedSessionTest::mapper_ = nullptr;
+
+TEST_F(SimulatedSessionTest, SessionIsAHokuyoLikeRun) {
+  const auto scans = session_->allScans();
+  ASSERT_GT(scans.size(), 500u);
+  EXPECT_EQ(scans.front().ranges.size(), 682u);
+  EXPECT_NEAR((scans.front().ranges.size() - 1) * scans.front().angle_increment, 240.0 * M_PI / 180.0, 0.02);
+  EXPECT_NEAR(scans.front().sensor_pose.translation().z(), 0.26, 1e-9);
+  const MapperStats& s = mapper_->stats();
+  EXPECT_GT(s.readings[ReadingKind::kNoReturn], 0u);
+  EXPECT_GT(s.readings[ReadingKind::kNaN], 0u);
+  EXPECT_GT(s.readings[ReadingKind::kBelowMin], 0u);
+}
+
+TEST_F(SimulatedSessionTest, MapMatchesGroundTruth) {
+  const GridImage truth = session_->plan().groundTruth(0.05);
+  const GridImage map = gridImageOf(mapper_->slice());
+  const OccupancyScore score = scoreOccupancy(map, truth, 1);
+  std::printf("[ simulated session ] precision %.4f recall %.4f (map occupied %zu, truth observed %zu)\n",
+              score.precision, score.recall, score.map_occupied, score.truth_observed);
+  EXPECT_GE(score.precision, 0.90);
+  EXPECT_GE(score.recall, 0.90);
+  EXPECT_GT(score.truth_observed, 2000u) << "the tour must see most of the walls";
+}
+
+TEST_F(SimulatedSessionTest, OpenDoorsAreFreeAndWallsBesideThemOccupied) {
+  const SliceGrid& slice = mapper_->slice();
+  for (const sim::Door& door : session_->plan().doors) {
+    const Eigen::Vector2d mid = 0.5 * (door.a + door.b);
+    EXPECT_GE(slice.valueAt(mid.x(), mid.y()), 0) << door.name << " observed";
+    EXPECT_LT(slice.valueAt(mid.x(), mid.y()), 50) << door.name << " doorway should be free";
+  }
+}
+
+TEST_F(SimulatedSessionTest, WalkingPersonLeavesNoTrail) {
+  // The person walked along y = 1.6 between x = 3.5 and 12.5; the robot drove the corridor at the end.
+  int occupied = 0, observed = 0;
+  for (double x = 4.0; x < 12.0; x += 0.05) {
+    const int v = mapper_->slice().valueAt(x, 1.6);
+    if (v >= 0) ++observed;
+    if (v > 50) ++occupied;
+  }
+  EXPECT_GT(observed, 100);
+  EXPECT_LT(occupied, observed / 20) << "at most 5 % of the person's path may still look occupied";
+}

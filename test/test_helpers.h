@@ -1,0 +1,35 @@
+// Small builders shared by the core tests.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <vector>
+
+#include "octo_slice_mapper/scan.h"
+
+namespace octo_slice_mapper {
+namespace test_support {
+
+// The lab's TurtleBot laser mount: 0.10 m forward, 0.26 m up, on a robot at (x, y, yaw).
+inline Eigen::Isometry3d laserPoseOnRobot(double x, double y, double yaw, double pitch = 0.0) {
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translate(Eigen::Vector3d(x, y, 0.0));
+  pose.rotate(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()));
+  pose.rotate(Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()));
+  pose.translate(Eigen::Vector3d(0.10, 0.0, 0.26));
+  return pose;
+}
+
+inline Scan makeScan(const Eigen::Isometry3d& pose, float angle_min, float increment, std::vector<float> ranges,
+                     float range_min = 0.02f, float range_max = 5.6f) {
+  Scan scan;
+  scan.sensor_pose = pose;
+  scan.angle_min = angle_min;
+  scan.angle_increment = increment;
+  scan.range_min = range_min;
+  scan.range_max = range_max;
+  scan.ranges = std::move(ranges);
+  return scan;
+}
+
+}  // namespace test_support
+}  // namespace octo_slice_mapper
