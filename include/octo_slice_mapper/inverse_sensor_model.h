@@ -48,7 +48,10 @@ class InverseSensorModel {
   double traceMargin(double range) const {
     return kBehindCutoff * (1.0 + options_.sigma_angle_gain) * sigmaAt(range, 0.0, 1.0);
   }
-  static constexpr double kBehindCutoff = 2.0;  // in sigmas: no information further behind a return
+  static constexpr double kBehindCutoff = 2.0;
+  // On the axis, points closer than range - pureFreeMargin(range) get exactly logOddsFree().
+  double pureFreeMargin(double range) const { return -kPureFreeBelow * sigmaAt(range, 0.0, 1.0); }
+  static constexpr double kPureFreeBelow = -8.0;  // in sigmas: F = 1 and G = 0 to float precision  // in sigmas: no information further behind a return
   double sigmaAt(double range, double off_axis, double half_angle) const;
   // Weight in [0,1] of the evidence at `off_axis` inside a cone of `half_angle`.
   double coneWeight(double off_axis, double half_angle) const;

@@ -10,6 +10,7 @@
 
 #include "octo_slice_mapper/inverse_sensor_model.h"
 #include "octo_slice_mapper/key_box.h"
+#include "octo_slice_mapper/octree_batch_update.h"
 #include "octo_slice_mapper/scan.h"
 
 namespace octo_slice_mapper {
@@ -26,6 +27,7 @@ struct InsertResult {
   ReadingCounts readings;          // per-reason reading counts of this scan
   std::uint64_t voxels_updated = 0;
   KeyBox touched;                  // keys whose log-odds changed (bounding box)
+  std::vector<octomap::OcTreeKey> updated_keys;  // and the keys themselves
   std::string error;               // non-empty: the whole scan was rejected, map untouched
   bool ok() const { return error.empty(); }
 };
@@ -61,18 +63,14 @@ class ScanInserter {
   std::vector<Beam> beamsOf(const Scan& scan, ReadingCounts* counts) const;
 
   // Per-voxel log-odds updates of one scan before they are applied, in traversal order.
-  struct VoxelUpdate {
-    octomap::OcTreeKey key;
-    float log_odds;
-  };
-  std::vector<VoxelUpdate> computeUpdates(const Eigen::Vector3d& origin, const std::vector<Beam>& beams,
+  std::vector<KeyUpdate> computeUpdates(const Eigen::Vector3d& origin, const std::vector<Beam>& beams,
                                           double half_angle);
 
   const InverseSensorModel& model() const { return model_; }
   const InsertOptions& options() const { return options_; }
 
  private:
-  InsertResult apply(const std::vector<VoxelUpdate>& updates, InsertResult result);
+  InsertResult apply(std::vector<KeyUpdate> updates, InsertResult result);
   void accumulate(const octomap::OcTreeKey& key, float value);
   double traceLength(const Beam& beam) const;
   void fanOf(const Beam& beam, double tan_half, std::vector<Eigen::Vector3d>* directions) const;

@@ -30,6 +30,9 @@ class SliceGrid {
   // Recomputes the columns inside `box` (x/y of the keys; the band decides z). Cost is
   // proportional to the box area, independent of the map size.
   void update(const KeyBox& box);
+  // Recomputes only the columns of `keys` that lie in the band (what one scan changed); cost is
+  // proportional to the number of keys.
+  void updateColumns(const std::vector<octomap::OcTreeKey>& keys, const KeyBox& box);
   // Recomputes everything from the tree (after loading a map or for checking).
   void rebuild();
   void clear();

@@ -41,6 +41,7 @@ double InverseSensorModel::sigmaAt(double range, double off_axis, double half_an
 }
 
 double InverseSensorModel::coneWeight(double off_axis, double half_angle) const {
+  if (off_axis <= 0.0) return 1.0;
   if (off_axis >= half_angle) return 0.0;
   const double inner = half_angle * (1.0 - options_.cone_taper_fraction);
   if (off_axis <= inner) return 1.0;
@@ -61,6 +62,8 @@ float InverseSensorModel::hitUpdate(double range, double along, double off_axis,
   const double sigma = sigmaAt(range, off_axis, half_angle);
   const double u = (along - range) / sigma;
   if (u >= kBehindCutoff) return 0.0f;
+  // Deep in the free valley F = 1 and G = 0 to float precision: skip erfc/exp (most voxels).
+  if (u < kPureFreeBelow) return static_cast<float>(w * l_free_);
   const double free_share = 0.5 * std::erfc((u + 2.0) / M_SQRT2);
   const double behind = u <= 1.0 ? 1.0 : 0.5 * (1.0 + std::cos(M_PI * (u - 1.0) / (kBehindCutoff - 1.0)));
   const double peak = std::exp(-0.5 * u * u) * behind;
@@ -74,6 +77,7 @@ float InverseSensorModel::noReturnUpdate(double clear_distance, double along, do
   const double sigma = sigmaAt(clear_distance, off_axis, half_angle);
   const double u = (along - clear_distance) / sigma;
   if (u >= kBehindCutoff) return 0.0f;
+  if (u < kPureFreeBelow) return static_cast<float>(w * l_free_);
   return static_cast<float>(w * l_free_ * 0.5 * std::erfc((u + 2.0) / M_SQRT2));
 }
 

@@ -39,7 +39,7 @@ InsertResult Mapper::record(InsertResult result) {
     stats_.scans_rejected++;
     return result;
   }
-  slice_->update(result.touched);
+  slice_->updateColumns(result.updated_keys, result.touched);
   stats_.scans_inserted++;
   stats_.readings += result.readings;
   stats_.voxel_updates += result.voxels_updated;

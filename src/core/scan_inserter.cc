@@ -127,10 +127,10 @@ void ScanInserter::fanOf(const Beam& beam, double tan_half, std::vector<Eigen::V
   }
 }
 
-std::vector<ScanInserter::VoxelUpdate> ScanInserter::computeUpdates(const Eigen::Vector3d& origin,
+std::vector<KeyUpdate> ScanInserter::computeUpdates(const Eigen::Vector3d& origin,
                                                                     const std::vector<Beam>& beams,
                                                                     double half_angle) {
-  std::vector<VoxelUpdate> updates;
+  std::vector<KeyUpdate> updates;
   octomap::OcTreeKey origin_key;
   if (!tree_->coordToKeyChecked(origin.x(), origin.y(), origin.z(), origin_key)) return updates;
   const double tan_half = std::tan(half_angle);
@@ -160,16 +160,26 @@ std::vector<ScanInserter::VoxelUpdate> ScanInserter::computeUpdates(const Eigen:
 
   // A voxel's centre is at most half its diagonal from any point inside it.
   const double half_diagonal = 0.5 * std::sqrt(3.0) * tree_->getResolution();
+  const double half_diagonal_sq = half_diagonal * half_diagonal;
   const octomap::point3d o(origin.x(), origin.y(), origin.z());
   for (std::size_t b = 0; b < beams.size(); ++b) {
     if (!usable[b]) continue;
     const Beam& beam = beams[b];
+    // On the axis, closer than this the model is exactly the free valley (see hitUpdate).
+    const double pure_free_until = beam.length - model_.pureFreeMargin(beam.length);
+    const float l_free = model_.logOddsFree();
     auto visit = [&](const octomap::OcTreeKey& key) {
       const octomap::point3d c = tree_->keyToCoord(key);
       const Eigen::Vector3d v(c.x() - origin.x(), c.y() - origin.y(), c.z() - origin.z());
       const double along = std::max(0.0, v.dot(beam.direction));
-      const double lateral = std::max(0.0, (v - along * beam.direction).norm() - half_diagonal);
-      const double off_axis = along > 0.0 ? std::atan(lateral / along) : 0.0;
+      const double lateral_sq = (v - along * beam.direction).squaredNorm();
+      // Voxels the axis passes through (most of them) are squarely inside the cone.
+      const bool on_axis = lateral_sq <= half_diagonal_sq || along <= 0.0;
+      if (on_axis && along < pure_free_until) {
+        accumulate(key, l_free);
+        return;
+      }
+      const double off_axis = on_axis ? 0.0 : std::atan((std::sqrt(lateral_sq) - half_diagonal) / along);
       const float value = beam.hit ? model_.hitUpdate(beam.length, along, off_axis, half_angle)
                                    : model_.noReturnUpdate(beam.length, along, off_axis, half_angle);
       if (value != 0.0f) accumulate(key, value);
@@ -193,11 +203,13 @@ std::vector<ScanInserter::VoxelUpdate> ScanInserter::computeUpdates(const Eigen:
   return updates;
 }
 
-InsertResult ScanInserter::apply(const std::vector<VoxelUpdate>& updates, InsertResult result) {
-  for (const VoxelUpdate& u : updates) {
-    tree_->updateNode(u.key, u.log_odds);
+InsertResult ScanInserter::apply(std::vector<KeyUpdate> updates, InsertResult result) {
+  result.updated_keys.reserve(updates.size());
+  for (const KeyUpdate& u : updates) {
     result.touched.add(u.key);
+    result.updated_keys.push_back(u.key);
   }
+  applyUpdatesInTreeOrder(tree_, &updates);
   result.voxels_updated = updates.size();
   return result;
 }

@@ -100,6 +100,15 @@ void SliceGrid::update(const KeyBox& box) {
   }
 }
 
+void SliceGrid::updateColumns(const std::vector<octomap::OcTreeKey>& keys, const KeyBox& box) {
+  if (box.empty() || box.max[2] < band_lo_ || box.min[2] > band_hi_) return;
+  ensureCovers(box.min[0], box.min[1], box.max[0], box.max[1]);
+  for (const octomap::OcTreeKey& k : keys) {
+    if (k[2] < band_lo_ || k[2] > band_hi_) continue;
+    data_[std::size_t(k[1] - origin_key_y_) * width_ + (k[0] - origin_key_x_)] = columnValue(k[0], k[1]);
+  }
+}
+
 void SliceGrid::rebuild() {
   clear();
   KeyBox box;

@@ -6,6 +6,7 @@
 #include <tf2_eigen/tf2_eigen.h>
 
 #include <boost/bind/bind.hpp>
+#include <cstdio>
 #include <sstream>
 
 #include "octo_slice_mapper/save_path.h"
@@ -102,7 +103,8 @@ void MapperNode::onScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
     return;
   }
   if (result.readings.skipped() > 0) {
-    ROS_WARN_THROTTLE(10.0, "scan readings skipped: %s", result.readings.summary().c_str());
+    // Single dropouts are normal for a lidar: counted, and only shown at debug level.
+    ROS_DEBUG_THROTTLE(10.0, "scan readings: %s", result.readings.summary().c_str());
   }
   afterInsert(result, (ros::WallTime::now() - start).toSec());
 }
@@ -195,15 +197,16 @@ std::string MapperNode::summary() const {
   return out.str();
 }
 
+// Runs after ros::spin() returned; roscpp has shut rosconsole down by then, so print directly.
 void MapperNode::shutdown() {
   if (!options_.save_on_shutdown.empty()) {
     SaveMap::Request req;
     SaveMap::Response res;
     req.prefix = options_.save_on_shutdown;
     onSaveMap(req, res);
-    if (res.success) ROS_INFO("saved on shutdown: %s", res.message.c_str());
+    std::fprintf(stderr, "[mapper_node] save on shutdown: %s: %s\n", res.success ? "ok" : "FAILED", res.message.c_str());
   }
-  ROS_INFO("session summary: %s", summary().c_str());
+  std::fprintf(stderr, "[mapper_node] session summary: %s\n", summary().c_str());
 }
 
 }  // namespace ros_adapter

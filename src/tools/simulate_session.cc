@@ -83,6 +83,9 @@ int main(int argc, char** argv) {
     auto latched = boost::make_shared<ros::M_string>();
     (*latched)["latching"] = "1";
     (*latched)["callerid"] = "/simulate_session";
+    (*latched)["type"] = ros::message_traits::datatype<tf2_msgs::TFMessage>();
+    (*latched)["md5sum"] = ros::message_traits::md5sum<tf2_msgs::TFMessage>();
+    (*latched)["message_definition"] = ros::message_traits::definition<tf2_msgs::TFMessage>();
     bag.write("/tf_static", t0, statics, latched);
 
     for (const Pose2D& p : session.poses()) {

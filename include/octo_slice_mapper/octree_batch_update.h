@@ -1,0 +1,25 @@
+// Applying many log-odds updates to an OcTree in one pass down the tree.
+#pragma once
+
+#include <octomap/OcTree.h>
+
+#include <vector>
+
+namespace octo_slice_mapper {
+
+struct KeyUpdate {
+  octomap::OcTreeKey key;
+  float log_odds;
+};
+
+// Gives the same tree as calling tree->updateNode(key, log_odds) for each update (same leaves,
+// same log-odds, same clamping, same pruning), but sorts the updates in octree order first and
+// walks each shared path from the root once, instead of twice per voxel (OctoMap's updateNode
+// searches for the leaf, then descends again to change it). Keys must be unique. Reorders
+// `updates`.
+void applyUpdatesInTreeOrder(octomap::OcTree* tree, std::vector<KeyUpdate>* updates);
+
+// The straightforward reference: updateNode per voxel, in the given order.
+void applyUpdatesOneByOne(octomap::OcTree* tree, const std::vector<KeyUpdate>& updates);
+
+}  // namespace octo_slice_mapper

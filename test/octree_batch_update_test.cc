@@ -1,0 +1,68 @@
+#include "octo_slice_mapper/octree_batch_update.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "octo_slice_mapper/scan_inserter.h"
+#include "octo_slice_mapper/sim/session.h"
+
+using namespace octo_slice_mapper;
+
+namespace {
+
+// Same leaves with the same log-odds, and the same node count (same pruning).
+void expectSameTree(const octomap::OcTree& a, const octomap::OcTree& b) {
+  ASSERT_EQ(a.size(), b.size());
+  ASSERT_EQ(a.getNumLeafNodes(), b.getNumLeafNodes());
+  std::size_t leaves = 0;
+  for (auto it = a.begin_leafs(); it != a.end_leafs(); ++it, ++leaves) {
+    const octomap::OcTreeNode* other = b.search(it.getKey(), it.getDepth());
+    ASSERT_NE(other, nullptr);
+    ASSERT_EQ(other->getLogOdds(), it->getLogOdds());
+  }
+  EXPECT_EQ(leaves, a.getNumLeafNodes());
+}
+
+}  // namespace
+
+TEST(OctreeBatchUpdate, RandomUpdatesMatchUpdateNodeOneByOne) {
+  std::mt19937 rng(3);
+  octomap::OcTree fast(0.05), reference(0.05);
+  for (octomap::OcTree* t : {&fast, &reference}) {
+    t->setClampingThresMin(0.12);
+    t->setClampingThresMax(0.97);
+  }
+  std::uniform_int_distribution<int> coord(-20, 20);
+  std::uniform_real_distribution<float> value(-1.0f, 1.5f);
+  for (int round = 0; round < 60; ++round) {
+    // Unique keys in a small volume, so nodes fill up, saturate, get pruned and expanded again.
+    std::vector<KeyUpdate> updates;
+    octomap::KeySet seen;
+    for (int n = 0; n < 3000; ++n) {
+      const octomap::OcTreeKey key = fast.coordToKey(coord(rng) * 0.05, coord(rng) * 0.05, (coord(rng) % 4) * 0.05);
+      if (seen.insert(key).second) updates.push_back({key, value(rng) + (round % 10 < 5 ? 0.8f : -0.8f)});
+    }
+    applyUpdatesOneByOne(&reference, updates);
+    applyUpdatesInTreeOrder(&fast, &updates);
+    ASSERT_NO_FATAL_FAILURE(expectSameTree(fast, reference)) << "round " << round;
+  }
+  EXPECT_GT(reference.getNumLeafNodes(), 1000u);
+}
+
+TEST(OctreeBatchUpdate, SimulatedScansMatchTheReference) {
+  const sim::SimulatedSession session(sim::FloorPlan::office(), sim::SessionSpec::officeTour());
+  octomap::OcTree fast(0.05), reference(0.05);
+  ScanInserter inserter(&fast, InsertOptions{});
+  ScanInserter reference_inserter(&reference, InsertOptions{});
+  std::mt19937 rng(1);
+  const auto times = session.scanTimes();
+  for (std::size_t i = 0; i < times.size(); i += 4) {
+    const Scan scan = session.scanAt(times[i], &rng);
+    ASSERT_TRUE(inserter.insert(scan).ok());
+    const double half_angle = reference_inserter.model().halfAngleFor(scan.angle_increment);
+    applyUpdatesOneByOne(&reference, reference_inserter.computeUpdates(scan.sensor_pose.translation(),
+                                                                       reference_inserter.beamsOf(scan, nullptr), half_angle));
+  }
+  expectSameTree(fast, reference);
+}
