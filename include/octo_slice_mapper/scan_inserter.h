@@ -92,7 +92,6 @@ class ScanInserter {
   std::unordered_map<octomap::OcTreeKey, std::int32_t, octomap::OcTreeKey::KeyHash> sparse_;
   octomap::OcTreeKey window_lo_;
   int window_nx_ = 0, window_ny_ = 0, window_nz_ = 0;
-  octomap::KeyRay ray_;
 };
 
 }  // namespace octo_slice_mapper

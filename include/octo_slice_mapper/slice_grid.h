@@ -64,6 +64,7 @@ class SliceGrid {
   SliceOptions options_;
   double resolution_;
   std::uint16_t band_lo_, band_hi_;
+  unsigned band_common_depth_;
   std::uint16_t origin_key_x_ = 0, origin_key_y_ = 0;
   int width_ = 0, height_ = 0;
   std::vector<std::int8_t> data_;

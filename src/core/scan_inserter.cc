@@ -2,12 +2,52 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace octo_slice_mapper {
 namespace {
 // Above this many cells the dense window would cost more memory than it saves (e.g. 80 m returns
 // at 0.02 m); such scans use a hash map instead.
 constexpr std::size_t kMaxWindowCells = std::size_t{16} << 20;
+// Visits, in order, the voxels the segment from `from` to `to` crosses (Amanatides & Woo), from
+// the voxel of `from` to the voxel of `to`, both included. Inline, so nothing is stored per step.
+template <typename Visit>
+inline void traverseVoxels(const octomap::OcTree& tree, const Eigen::Vector3d& from, const Eigen::Vector3d& to,
+                           const octomap::OcTreeKey& from_key, const octomap::OcTreeKey& to_key, Visit&& visit) {
+  const double resolution = tree.getResolution();
+  const Eigen::Vector3d delta = to - from;
+  int key[3] = {from_key[0], from_key[1], from_key[2]};
+  int step[3];
+  double t_max[3], t_delta[3];
+  int steps_left = 0;
+  for (int i = 0; i < 3; ++i) {
+    steps_left += std::abs(int(to_key[i]) - key[i]);
+    if (delta[i] > 0.0) {
+      step[i] = 1;
+      t_delta[i] = resolution / delta[i];
+      t_max[i] = (tree.keyToCoord(from_key[i]) + 0.5 * resolution - from[i]) / delta[i];
+    } else if (delta[i] < 0.0) {
+      step[i] = -1;
+      t_delta[i] = -resolution / delta[i];
+      t_max[i] = (tree.keyToCoord(from_key[i]) - 0.5 * resolution - from[i]) / delta[i];
+    } else {
+      step[i] = 0;
+      t_delta[i] = t_max[i] = std::numeric_limits<double>::infinity();
+    }
+  }
+  octomap::OcTreeKey current = from_key;
+  visit(current);
+  // Exactly one axis advances per step, so the end voxel is reached after steps_left steps.
+  for (; steps_left > 0; --steps_left) {
+    const int dim = t_max[0] < t_max[1] ? (t_max[0] < t_max[2] ? 0 : 2) : (t_max[1] < t_max[2] ? 1 : 2);
+    key[dim] += step[dim];
+    t_max[dim] += t_delta[dim];
+    current[dim] = static_cast<octomap::key_type>(key[dim]);
+    visit(current);
+  }
+  if (!(current == to_key)) visit(to_key);  // rounding took another route: still end at the return
+}
+
 }  // namespace
 
 ScanInserter::ScanInserter(octomap::OcTree* tree, const InsertOptions& options)
@@ -161,14 +201,13 @@ std::vector<KeyUpdate> ScanInserter::computeUpdates(const Eigen::Vector3d& origi
   // A voxel's centre is at most half its diagonal from any point inside it.
   const double half_diagonal = 0.5 * std::sqrt(3.0) * tree_->getResolution();
   const double half_diagonal_sq = half_diagonal * half_diagonal;
-  const octomap::point3d o(origin.x(), origin.y(), origin.z());
   for (std::size_t b = 0; b < beams.size(); ++b) {
     if (!usable[b]) continue;
     const Beam& beam = beams[b];
     // On the axis, closer than this the model is exactly the free valley (see hitUpdate).
     const double pure_free_until = beam.length - model_.pureFreeMargin(beam.length);
     const float l_free = model_.logOddsFree();
-    auto visit = [&](const octomap::OcTreeKey& key) {
+    auto visit = [&](const octomap::OcTreeKey& key) __attribute__((always_inline)) {
       const octomap::point3d c = tree_->keyToCoord(key);
       const Eigen::Vector3d v(c.x() - origin.x(), c.y() - origin.y(), c.z() - origin.z());
       const double along = std::max(0.0, v.dot(beam.direction));
@@ -187,10 +226,7 @@ std::vector<KeyUpdate> ScanInserter::computeUpdates(const Eigen::Vector3d& origi
     fanOf(beam, tan_half, &fan);
     for (const Eigen::Vector3d& dir : fan) {
       const Eigen::Vector3d far = origin + dir * traceLength(beam);
-      const octomap::point3d end(far.x(), far.y(), far.z());
-      tree_->computeRayKeys(o, end, ray_);  // excludes the end voxel
-      for (const octomap::OcTreeKey& key : ray_) visit(key);
-      visit(tree_->coordToKey(end));
+      traverseVoxels(*tree_, origin, far, origin_key, tree_->coordToKey(far.x(), far.y(), far.z()), visit);
     }
   }
 

@@ -15,6 +15,10 @@ SliceGrid::SliceGrid(const octomap::OcTree& tree, const SliceOptions& options)
   }
   band_lo_ = lo[2];
   band_hi_ = hi[2];
+  // Depth of the deepest node whose key range holds both band ends.
+  unsigned differing = band_lo_ ^ band_hi_, bits = 0;
+  while (differing) differing >>= 1, ++bits;
+  band_common_depth_ = tree.getTreeDepth() - bits;
 }
 
 double SliceGrid::originX() const { return tree_.keyToCoord(origin_key_x_) - 0.5 * resolution_; }
@@ -45,11 +49,25 @@ void SliceGrid::clear() {
   data_.clear();
 }
 
+// One descent to the deepest node holding the whole band of this column, then a few levels down
+// per layer: 5 layers cost ~1.5 root-to-leaf walks instead of 5.
 std::int8_t SliceGrid::columnValue(std::uint16_t kx, std::uint16_t ky) const {
+  const unsigned depth = tree_.getTreeDepth();
+  const octomap::OcTreeNode* top = tree_.search(octomap::OcTreeKey(kx, ky, band_lo_), band_common_depth_);
+  if (!top) return kUnknownCell;
   double best = -1.0;
-  for (unsigned kz = band_lo_; kz <= band_hi_; ++kz) {
-    const octomap::OcTreeNode* node = tree_.search(octomap::OcTreeKey(kx, ky, static_cast<std::uint16_t>(kz)));
-    if (node) best = std::max(best, node->getOccupancy());
+  if (!tree_.nodeHasChildren(top)) {
+    best = top->getOccupancy();  // a leaf (possibly pruned) covering the whole band
+  } else {
+    for (unsigned kz = band_lo_; kz <= band_hi_; ++kz) {
+      const octomap::OcTreeKey key(kx, ky, static_cast<std::uint16_t>(kz));
+      const octomap::OcTreeNode* node = top;
+      for (unsigned d = band_common_depth_; d < depth && node && tree_.nodeHasChildren(node); ++d) {
+        const unsigned pos = octomap::computeChildIdx(key, static_cast<int>(depth - 1 - d));
+        node = tree_.nodeChildExists(node, pos) ? tree_.getNodeChild(node, pos) : nullptr;
+      }
+      if (node) best = std::max(best, node->getOccupancy());
+    }
   }
   if (best < 0.0) return kUnknownCell;
   return static_cast<std::int8_t>(std::lround(best * 100.0));
