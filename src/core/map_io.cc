@@ -14,6 +14,7 @@ namespace {
 
 const char kBinaryHeader[] = "# Octomap OcTree binary file";
 const char kFullHeader[] = "# Octomap OcTree file";
+const int kMinPictureSide = 600;  // pixels
 
 bool startsWith(const std::string& s, const char* prefix) { return s.compare(0, std::strlen(prefix), prefix) == 0; }
 
@@ -219,20 +220,23 @@ bool savePng(const GridImage& grid, const std::string& path, std::string* error)
     *error = "libpng could not start for " + path;
     return false;
   }
+  // Whole pixels per cell, so that a small map is still readable.
+  const int scale = std::max(1, (kMinPictureSide + std::max(grid.width, grid.height) - 1) / std::max(grid.width, grid.height));
+  const int out_w = grid.width * scale, out_h = grid.height * scale;
   std::string bytes;
-  std::vector<png_byte> row(std::size_t(grid.width) * 3);
+  std::vector<png_byte> row(std::size_t(out_w) * 3);
   if (setjmp(png_jmpbuf(png))) {
     png_destroy_write_struct(&png, &info);
     *error = "libpng failed while encoding " + path;
     return false;
   }
   png_set_write_fn(png, &bytes, pngWriteToString, nullptr);
-  png_set_IHDR(png, info, grid.width, grid.height, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
+  png_set_IHDR(png, info, out_w, out_h, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
                PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
   png_write_info(png, info);
   for (int j = grid.height - 1; j >= 0; --j) {  // north up
-    for (int i = 0; i < grid.width; ++i) {
-      const int v = grid.at(i, j);
+    for (int i = 0; i < out_w; ++i) {
+      const int v = grid.at(i / scale, j);
       png_byte* px = &row[std::size_t(i) * 3];
       if (v < 0) {
         px[0] = 196, px[1] = 204, px[2] = 216;
@@ -241,7 +245,7 @@ bool savePng(const GridImage& grid, const std::string& path, std::string* error)
         px[0] = px[1] = px[2] = grey;
       }
     }
-    png_write_row(png, row.data());
+    for (int k = 0; k < scale; ++k) png_write_row(png, row.data());
   }
   png_write_end(png, nullptr);
   png_destroy_write_struct(&png, &info);
