@@ -74,6 +74,7 @@ class ScanInserter {
   void accumulate(const octomap::OcTreeKey& key, float value);
   double traceLength(const Beam& beam) const;
   void fanOf(const Beam& beam, double tan_half, std::vector<Eigen::Vector3d>* directions) const;
+  bool inWindow(const octomap::OcTreeKey& key) const;  // false in sparse mode
   std::size_t windowIndex(const octomap::OcTreeKey& key) const;
   void prepareWindow(const octomap::OcTreeKey& lo, const octomap::OcTreeKey& hi);
 

@@ -127,10 +127,14 @@ void ScanInserter::prepareWindow(const octomap::OcTreeKey& lo, const octomap::Oc
   const std::size_t cells = std::size_t(window_nx_) * window_ny_ * window_nz_;
   if (cells > kMaxWindowCells) {
     window_nx_ = 0;  // sparse mode
-    sparse_.clear();
     return;
   }
   if (window_.size() < cells) window_.assign(cells, -1);
+}
+
+bool ScanInserter::inWindow(const octomap::OcTreeKey& key) const {
+  return window_nx_ > 0 && key[0] >= window_lo_[0] && key[1] >= window_lo_[1] && key[2] >= window_lo_[2] &&
+         key[0] - window_lo_[0] < window_nx_ && key[1] - window_lo_[1] < window_ny_ && key[2] - window_lo_[2] < window_nz_;
 }
 
 std::size_t ScanInserter::windowIndex(const octomap::OcTreeKey& key) const {
@@ -140,7 +144,7 @@ std::size_t ScanInserter::windowIndex(const octomap::OcTreeKey& key) const {
 
 void ScanInserter::accumulate(const octomap::OcTreeKey& key, float value) {
   std::int32_t* slot_ref = nullptr;
-  if (window_nx_ > 0) {
+  if (inWindow(key)) {
     slot_ref = &window_[windowIndex(key)];
   } else {
     slot_ref = &sparse_.emplace(key, -1).first->second;
@@ -185,7 +189,7 @@ std::vector<KeyUpdate> ScanInserter::computeUpdates(const Eigen::Vector3d& origi
     fanOf(beams[b], tan_half, &fan);
     KeyBox beam_box;
     bool inside = true;
-    for (const Eigen::Vector3d& dir : {fan.front(), fan.back()}) {
+    for (const Eigen::Vector3d& dir : fan) {  // the arc of ends bulges past the outer rays' chord
       const Eigen::Vector3d end = origin + dir * traceLength(beams[b]);
       octomap::OcTreeKey key;
       inside = inside && tree_->coordToKeyChecked(end.x(), end.y(), end.z(), key);
@@ -197,6 +201,7 @@ std::vector<KeyUpdate> ScanInserter::computeUpdates(const Eigen::Vector3d& origi
   }
   prepareWindow(box.min, box.max);
   slots_.clear();
+  sparse_.clear();
 
   // A voxel's centre is at most half its diagonal from any point inside it.
   const double half_diagonal = 0.5 * std::sqrt(3.0) * tree_->getResolution();
@@ -234,7 +239,7 @@ std::vector<KeyUpdate> ScanInserter::computeUpdates(const Eigen::Vector3d& origi
   for (const Slot& slot : slots_) {
     const float value = slot.positive > 0.0f ? slot.positive : slot.negative;
     if (value != 0.0f) updates.push_back({slot.key, value});
-    if (window_nx_ > 0) window_[windowIndex(slot.key)] = -1;
+    if (inWindow(slot.key)) window_[windowIndex(slot.key)] = -1;
   }
   return updates;
 }

@@ -38,6 +38,8 @@ struct Person {
   Eigen::Vector2d positionAt(double t) const;
 };
 
+constexpr double kDoorCorridorWidth = 2.0;
+
 struct FloorPlan {
   std::vector<Wall> walls;  // static, also the ground truth (closed doors are walls)
   std::vector<Door> doors;
@@ -46,6 +48,9 @@ struct FloorPlan {
 
   // Corridor along x with rooms north and south, three open doors, furniture, one person.
   static FloorPlan office();
+  // The lab's Figure 4: a corridor along x (kDoorCorridorWidth wide) with one open door
+  // (x 4.5-5.4) in its north wall to a room; a robot passing by sees the doorway obliquely.
+  static FloorPlan doorCorridor();
 
   // Distance from `origin` along unit `dir` to the first wall or person at time t; +inf if none.
   double castRay(const Eigen::Vector2d& origin, const Eigen::Vector2d& dir, double t, bool with_people = true) const;

@@ -31,6 +31,9 @@ struct LidarSpec {
   double nan_probability = 0.003;
   // Dark or glass surfaces that return nothing; off by default (they clear space through walls).
   double spurious_no_return_probability = 0.0;
+  // Width of each beam's cone (rad): the reading is the nearest obstacle anywhere in it, like a
+  // sonar. 0 = a laser's thin beam.
+  double beam_width = 0.0;
   // Laser mount on base_link (the lab's TurtleBot: 0.10 m forward, 0.26 m up).
   double mount_x = 0.10, mount_z = 0.26;
 };
@@ -45,6 +48,9 @@ struct SessionSpec {
 
   // A tour of FloorPlan::office(): corridor, rooms A, C and B through their doors, back down the corridor.
   static SessionSpec officeTour();
+  // Straight down FloorPlan::doorCorridor() past the door with a ring of 24 sonar-like range
+  // sensors: 20 deg cones, 15 deg apart, 5 m.
+  static SessionSpec corridorPass();
 };
 
 class SimulatedSession {

@@ -92,6 +92,24 @@ FloorPlan FloorPlan::office() {
   return plan;
 }
 
+FloorPlan FloorPlan::doorCorridor() {
+  FloorPlan plan;
+  auto& w = plan.walls;
+  const double y = kDoorCorridorWidth;
+  w.push_back({{0, 0}, {10, 0}});          // south wall
+  w.push_back({{0, y}, {4.5, y}});         // north wall, west of the door
+  w.push_back({{5.4, y}, {10, y}});        // north wall, east of the door
+  w.push_back({{0, 0}, {0, y}});
+  w.push_back({{10, 0}, {10, y}});
+  w.push_back({{3.0, y}, {3.0, y + 3.0}});  // the room behind the door
+  w.push_back({{7.0, y}, {7.0, y + 3.0}});
+  w.push_back({{3.0, y + 3.0}, {7.0, y + 3.0}});
+  plan.doors = {{"door", {4.5, y}, {5.4, y}, true}};
+  plan.min_corner = {-0.5, -0.5};
+  plan.max_corner = {10.5, y + 3.5};
+  return plan;
+}
+
 double FloorPlan::castRay(const Eigen::Vector2d& origin, const Eigen::Vector2d& dir, double t, bool with_people) const {
   double best = std::numeric_limits<double>::infinity();
   for (const Wall& w : walls) {

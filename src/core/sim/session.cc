@@ -24,6 +24,21 @@ SessionSpec SessionSpec::officeTour() {
   return spec;
 }
 
+SessionSpec SessionSpec::corridorPass() {
+  SessionSpec spec;
+  spec.waypoints = {{0.6, 0.5 * kDoorCorridorWidth}, {9.4, 0.5 * kDoorCorridorWidth}};
+  spec.linear_speed = 0.4;
+  spec.lidar.beams = 24;
+  spec.lidar.angle_min = static_cast<float>(-M_PI);
+  spec.lidar.angle_increment = static_cast<float>(2.0 * M_PI / 24.0);
+  spec.lidar.beam_width = 20.0 * M_PI / 180.0;
+  spec.lidar.range_max = 5.0f;
+  spec.lidar.dropout_probability = 0.0;
+  spec.lidar.nan_probability = 0.0;
+  spec.seed = 11;
+  return spec;
+}
+
 SimulatedSession::SimulatedSession(const FloorPlan& plan, const SessionSpec& spec) : plan_(plan), spec_(spec) {
   if (spec.waypoints.size() < 2) return;
   std::vector<Motion> motions;
@@ -113,7 +128,11 @@ Scan SimulatedSession::scanAt(double t, std::mt19937* rng) const {
   std::normal_distribution<double> gauss(0.0, 1.0);
   for (int i = 0; i < lidar.beams; ++i) {
     const double a = yaw + lidar.angle_min + i * static_cast<double>(lidar.angle_increment);
-    const double truth = plan_.castRay(origin, Eigen::Vector2d(std::cos(a), std::sin(a)), t);
+    double truth = plan_.castRay(origin, Eigen::Vector2d(std::cos(a), std::sin(a)), t);
+    for (int k = -8; lidar.beam_width > 0.0 && k <= 8; ++k) {  // a cone returns its nearest echo
+      const double ak = a + 0.5 * lidar.beam_width * k / 8.0;
+      truth = std::min(truth, plan_.castRay(origin, Eigen::Vector2d(std::cos(ak), std::sin(ak)), t));
+    }
     const double u = uniform(*rng);
     const double noise = gauss(*rng);
     float r;

@@ -1,0 +1,133 @@
+// Task 2: the map that best explains all kept scans at once, by hill climbing over binary cells
+// of the 2D slice grid under the forward sensor model.
+#pragma once
+
+#include <Eigen/Core>
+#include <cmath>
+#include <cstdint>
+#include <functional>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "octo_slice_mapper/forward_sensor_model.h"
+#include "octo_slice_mapper/map_io.h"
+#include "octo_slice_mapper/scan_store.h"
+
+namespace octo_slice_mapper {
+
+struct GlobalOptimizerOptions {
+  ForwardSensorModelOptions model;
+  // A no-return reading says "no obstacle within this distance" (as the inverse model clears).
+  double no_return_range = 4.0;
+  // Returns farther than this are not used (0 = the sensor's range_max).
+  double max_range = 0.0;
+  int max_sweeps = 100;
+  // Full opening angle of a beam (rad). 0: a laser's thin beam, traced along its axis. Wider
+  // (sonar): the expected range is the nearest occupied cell anywhere in the cone.
+  double beam_opening_angle = 0.0;
+  // Laser height used to index scans; the optimizer is 2D: beams are projected onto the x-y plane.
+};
+
+struct OptimizeReport {
+  double initial_log_likelihood = 0.0;
+  double final_log_likelihood = 0.0;
+  std::vector<std::size_t> flips_per_sweep;
+  std::vector<double> log_likelihood_per_sweep;  // after each sweep
+  int sweeps = 0;
+  bool converged = false;  // a sweep without flips: a local optimum
+  std::size_t cells = 0;   // observed cells (the variables)
+  std::size_t beams = 0;
+  std::size_t ray_cells = 0;  // (cell, beam) pairs in the index
+  double build_seconds = 0.0, optimize_seconds = 0.0;
+  std::size_t memory_bytes = 0;
+};
+
+// Reports stage and fraction done, for progress bars.
+using ProgressFn = std::function<void(const std::string& stage, double fraction)>;
+
+class GlobalOptimizer {
+ public:
+  GlobalOptimizer(const GlobalOptimizerOptions& options, double resolution);
+
+  // Indexes every beam of `scans`: which cells it crosses (a cell -> beams index, built in two
+  // passes so it needs no per-pair distances). Cells no beam crosses stay unknown.
+  void build(const std::vector<StoredScan>& scans, const ProgressFn& progress = {});
+
+  // Initial states: all observed cells free (the lab's start), or occupied where `map` (e.g. the
+  // incremental slice) is above 50 % (warm start).
+  void startEmpty();
+  void startFrom(const GridImage& map);
+  void setOccupied(std::size_t cell, bool occupied);  // then call resetBeams()
+  void resetBeams();  // recompute every beam's first occupied cell and the total log-likelihood
+
+  // Sweeps until no single flip improves (or max_sweeps). Within a sweep, cells are tried in order
+  // of their gain at the start of the sweep, each re-evaluated just before flipping; a flip is made
+  // only for a strictly positive gain (ties don't flip), so the log-likelihood never decreases.
+  OptimizeReport optimize(const ProgressFn& progress = {});
+
+  // Change of the total log-likelihood if `cell` flipped: only the beams crossing the cell are
+  // visited, using each beam's record of its first occupied cell.
+  double flipDelta(std::size_t cell) const;
+  void flip(std::size_t cell);  // applies it and updates the beam records and the total
+  double logLikelihood() const { return log_likelihood_; }
+  double recomputeLogLikelihood() const;  // from scratch, tracing every beam (for checking)
+
+  std::size_t cellCount() const { return cell_beams_begin_.empty() ? 0 : cell_beams_begin_.size() - 1; }
+  bool observed(std::size_t cell) const { return cell_beams_begin_[cell + 1] > cell_beams_begin_[cell]; }
+  bool occupied(std::size_t cell) const { return occupied_[cell] != 0; }
+  std::size_t cellAt(double x, double y) const;  // or npos outside the grid
+  static constexpr std::size_t npos = std::numeric_limits<std::size_t>::max();
+  // 100 occupied, 0 free (a beam passed through before any obstacle), -1 never seen.
+  GridImage result() const;
+  std::size_t memoryBytes() const;
+  std::size_t beamCount() const { return beams_.size(); }
+
+ private:
+  struct Beam {
+    float ox, oy, dx, dy;  // origin and unit direction in the x-y plane
+    std::uint16_t fan;     // extra rays on each side of the axis, spread over the cone
+    std::uint32_t id;      // index in beams_ (records are copied while evaluating a flip)
+    float z;               // measured range (returns) or no_return_range
+    float length;          // how far the beam is traced
+    bool hit;
+    std::int32_t first_cell;  // first occupied cell along the beam, -1 none
+    float first_dist;         // its distance along the beam
+    float certain_miss;       // an obstacle closer than this can't explain the return at all
+    double log_likelihood;    // of the beam with its current first obstacle
+  };
+  void setFirst(Beam* beam, std::int32_t cell, float distance) const;
+  template <typename Visit>
+  void walk(const Beam& beam, Visit&& visit) const;
+  void flip(std::size_t cell, double delta);
+  double beamLogLikelihood(const Beam& beam, bool obstacle, float distance) const;
+  Eigen::Vector2d centre(std::size_t cell) const;
+  double along(const Beam& beam, std::size_t cell) const;
+  // Distance from the beam's origin to a cell centre (the range at which it would echo).
+  static double along(const Beam& beam, const Eigen::Vector2d& c) {
+    return beam.fan == 0 ? (c.x() - beam.ox) * beam.dx + (c.y() - beam.oy) * beam.dy
+                         : std::hypot(c.x() - beam.ox, c.y() - beam.oy);
+  }
+  template <typename Visit>
+  void walkRay(const Beam& beam, float dx, float dy, Visit&& visit) const;
+  void listConeCells(const Beam& beam, std::vector<std::size_t>* cells) const;
+  std::vector<std::uint64_t> cone_begin_;  // per beam, into cone_cells_ (empty range for thin beams)
+  std::vector<std::size_t> cone_cells_;   // cells of each cone, each once, nearest first
+  void findFirstOccupied(Beam* beam, std::int32_t skip_cell) const;
+
+  GlobalOptimizerOptions options_;
+  double resolution_;
+  double z_max_ = 1.0;
+  ForwardSensorModel model_;
+  // Grid: cell (i, j) centre at (x0_ + (i + 0.5) res, y0_ + (j + 0.5) res).
+  double x0_ = 0.0, y0_ = 0.0;
+  int width_ = 0, height_ = 0;
+  std::vector<Beam> beams_;
+  std::vector<std::uint64_t> cell_beams_begin_;  // CSR offsets, size cells + 1
+  std::vector<std::uint32_t> cell_beams_;        // beam ids per cell
+  std::vector<std::uint8_t> occupied_;
+  std::vector<std::uint8_t> beam_changed_;  // beams through a cell flipped in this sweep
+  double log_likelihood_ = 0.0;
+};
+
+}  // namespace octo_slice_mapper

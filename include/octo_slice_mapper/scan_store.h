@@ -1,0 +1,50 @@
+// The scans kept for the global pass: compact, bounded in number, thinned by keyframe selection.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <vector>
+
+#include "octo_slice_mapper/scan.h"
+
+namespace octo_slice_mapper {
+
+struct StoredScan {
+  Eigen::Vector3f origin;         // laser origin in the map frame
+  Eigen::Quaternionf rotation;    // laser orientation in the map frame
+  float angle_min, angle_increment, range_min, range_max;
+  std::vector<float> ranges;
+
+  Scan toScan() const;
+  std::size_t bytes() const { return sizeof(StoredScan) + ranges.capacity() * sizeof(float); }
+};
+
+struct ScanStoreOptions {
+  // Keep a scan only after the laser moved this far (m) or turned this much (rad) since the last
+  // kept one. The defaults keep every scan (the shared datasets are already thinned).
+  double min_distance = 0.0;
+  double min_rotation = 0.0;
+  // At most this many scans; when full, every second scan is dropped (uniform thinning), so the
+  // store keeps covering the whole run. 20000 scans of 1081 beams are ~90 MB.
+  std::size_t max_scans = 20000;
+};
+
+class ScanStore {
+ public:
+  explicit ScanStore(const ScanStoreOptions& options = {}) : options_(options) {}
+
+  // True when kept.
+  bool add(const Scan& scan);
+  void clear();
+  const std::vector<StoredScan>& scans() const { return scans_; }
+  std::size_t memoryBytes() const;
+  std::uint64_t skippedByKeyframe() const { return skipped_; }
+  std::uint64_t droppedWhenFull() const { return dropped_; }
+
+ private:
+  ScanStoreOptions options_;
+  std::vector<StoredScan> scans_;
+  std::uint64_t skipped_ = 0, dropped_ = 0;
+};
+
+}  // namespace octo_slice_mapper

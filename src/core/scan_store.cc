@@ -1,0 +1,52 @@
+#include "octo_slice_mapper/scan_store.h"
+
+namespace octo_slice_mapper {
+
+Scan StoredScan::toScan() const {
+  Scan scan;
+  scan.sensor_pose = Eigen::Isometry3d::Identity();
+  scan.sensor_pose.linear() = rotation.cast<double>().toRotationMatrix();
+  scan.sensor_pose.translation() = origin.cast<double>();
+  scan.angle_min = angle_min;
+  scan.angle_increment = angle_increment;
+  scan.range_min = range_min;
+  scan.range_max = range_max;
+  scan.ranges = ranges;
+  return scan;
+}
+
+bool ScanStore::add(const Scan& scan) {
+  const Eigen::Vector3f origin = scan.sensor_pose.translation().cast<float>();
+  const Eigen::Quaternionf rotation(scan.sensor_pose.linear().cast<float>());
+  if (!scans_.empty() && (options_.min_distance > 0.0 || options_.min_rotation > 0.0)) {
+    const StoredScan& last = scans_.back();
+    const bool moved = (origin - last.origin).norm() >= options_.min_distance;
+    const bool turned = last.rotation.angularDistance(rotation) >= options_.min_rotation;
+    if (!moved && !turned) {
+      ++skipped_;
+      return false;
+    }
+  }
+  if (options_.max_scans > 0 && scans_.size() >= options_.max_scans) {
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < scans_.size(); i += 2) scans_[kept++] = std::move(scans_[i]);
+    dropped_ += scans_.size() - kept;
+    scans_.resize(kept);
+  }
+  scans_.push_back({origin, rotation, scan.angle_min, scan.angle_increment, scan.range_min, scan.range_max, scan.ranges});
+  scans_.back().ranges.shrink_to_fit();
+  return true;
+}
+
+void ScanStore::clear() {
+  scans_.clear();
+  skipped_ = dropped_ = 0;
+}
+
+std::size_t ScanStore::memoryBytes() const {
+  std::size_t bytes = sizeof(*this) + scans_.capacity() * sizeof(StoredScan);
+  for (const StoredScan& s : scans_) bytes += s.ranges.capacity() * sizeof(float);
+  return bytes;
+}
+
+}  // namespace octo_slice_mapper

@@ -1,0 +1,156 @@
+#include "octo_slice_mapper/global_optimizer.h"
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <random>
+
+#include "octo_slice_mapper/map_evaluation.h"
+#include "octo_slice_mapper/mapper.h"
+#include "octo_slice_mapper/sim/session.h"
+
+using namespace octo_slice_mapper;
+
+namespace {
+
+std::vector<StoredScan> storeAll(const std::vector<Scan>& scans) {
+  ScanStore store;
+  for (const Scan& s : scans) store.add(s);
+  return store.scans();
+}
+
+int valueAt(const GridImage& g, double x, double y) {
+  const int i = static_cast<int>(std::floor((x - g.origin_x) / g.resolution));
+  const int j = static_cast<int>(std::floor((y - g.origin_y) / g.resolution));
+  if (i < 0 || j < 0 || i >= g.width || j >= g.height) return -1;
+  return g.at(i, j);
+}
+
+}  // namespace
+
+TEST(GlobalOptimizer, IncrementalDeltaEqualsFullRecomputation) {
+  // A few scans of the corridor, random binary maps over the observed cells.
+  const sim::SimulatedSession session(sim::FloorPlan::doorCorridor(), sim::SessionSpec::corridorPass());
+  std::vector<Scan> scans = session.allScans();
+  scans.resize(40);
+  GlobalOptimizer optimizer(GlobalOptimizerOptions{}, 0.1);
+  optimizer.build(storeAll(scans));
+  std::vector<std::size_t> observed;
+  for (std::size_t c = 0; c < optimizer.cellCount(); ++c) {
+    if (optimizer.observed(c)) observed.push_back(c);
+  }
+  ASSERT_GT(observed.size(), 200u);
+  std::mt19937 rng(5);
+  for (int trial = 0; trial < 5; ++trial) {
+    std::bernoulli_distribution occupied(0.05 + 0.1 * trial);
+    for (std::size_t c : observed) optimizer.setOccupied(c, occupied(rng));
+    optimizer.resetBeams();
+    ASSERT_NEAR(optimizer.logLikelihood(), optimizer.recomputeLogLikelihood(), 1e-6);
+    std::uniform_int_distribution<std::size_t> pick(0, observed.size() - 1);
+    for (int k = 0; k < 40; ++k) {
+      const std::size_t c = observed[pick(rng)];
+      const double before = optimizer.recomputeLogLikelihood();
+      const double predicted = optimizer.flipDelta(c);
+      optimizer.flip(c);
+      const double actual = optimizer.recomputeLogLikelihood() - before;
+      ASSERT_NEAR(predicted, actual, 1e-6 * std::max(1.0, std::abs(actual))) << "trial " << trial << " cell " << c;
+      ASSERT_NEAR(optimizer.logLikelihood(), optimizer.recomputeLogLikelihood(), 1e-5);
+    }
+  }
+}
+
+TEST(GlobalOptimizer, SweepsNeverLowerTheLikelihoodAndEndInALocalOptimum) {
+  const sim::SimulatedSession session(sim::FloorPlan::doorCorridor(), sim::SessionSpec::corridorPass());
+  GlobalOptimizer optimizer(GlobalOptimizerOptions{}, 0.05);
+  optimizer.build(storeAll(session.allScans()));
+  const OptimizeReport report = optimizer.optimize();
+  ASSERT_TRUE(report.converged);
+  double previous = report.initial_log_likelihood;
+  for (double ll : report.log_likelihood_per_sweep) {
+    EXPECT_GE(ll, previous);
+    previous = ll;
+  }
+  EXPECT_GT(report.final_log_likelihood, report.initial_log_likelihood);
+  EXPECT_EQ(report.flips_per_sweep.back(), 0u);
+  EXPECT_NEAR(optimizer.logLikelihood(), optimizer.recomputeLogLikelihood(), 1e-6 * std::abs(optimizer.logLikelihood()));
+  for (std::size_t c = 0; c < optimizer.cellCount(); ++c) {
+    if (optimizer.observed(c)) {
+      ASSERT_LE(optimizer.flipDelta(c), 1e-9) << "cell " << c << " would still improve";
+    }
+  }
+}
+
+TEST(GlobalOptimizer, OpensTheDoorTheInverseModelClosed) {
+  // Sonar-like beams (20 deg cones that echo from their nearest obstacle) pass an open door: the
+  // inverse model spreads the echoes from the wall beside the door over the doorway (Probabilistic
+  // Robotics sec. 9.4, the lab's Figure 4). The forward model explains every echo by the wall
+  // inside the cone and keeps the door open.
+  const sim::SimulatedSession session(sim::FloorPlan::doorCorridor(), sim::SessionSpec::corridorPass());
+  const double cone = session.spec().lidar.beam_width;
+  MapperOptions options;
+  options.insert.model.beam_opening_angle = cone;
+  options.insert.model.sigma_base = 0.1;  // sonar range noise
+  options.insert.model.sigma_per_meter = 0.02;
+  Mapper mapper(options);
+  const std::vector<Scan> scans = session.allScans();
+  for (const Scan& s : scans) ASSERT_TRUE(mapper.insert(s).ok());
+  const GridImage incremental = gridImageOf(mapper.slice());
+
+  GlobalOptimizerOptions optimizer_options;
+  optimizer_options.beam_opening_angle = cone;
+  optimizer_options.model.sigma_base = 0.1;
+  GlobalOptimizer optimizer(optimizer_options, options.resolution);
+  optimizer.build(storeAll(scans));
+  const OptimizeReport report = optimizer.optimize();
+  ASSERT_TRUE(report.converged);
+  const GridImage optimized = optimizer.result();
+
+  const double wall_y = sim::kDoorCorridorWidth - 0.03;  // the corridor-side face of the north wall
+  int incremental_not_free = 0, optimized_free = 0, cells = 0;
+  for (double x = 4.525; x < 5.4; x += 0.05, ++cells) {
+    const int inc = valueAt(incremental, x, wall_y), opt = valueAt(optimized, x, wall_y);
+    std::printf("[ doorway x=%.3f ] incremental %3d optimized %3d\n", x, inc, opt);
+    if (inc < 0 || inc >= 40) ++incremental_not_free;
+    if (opt == 0) ++optimized_free;
+  }
+  std::printf("[ door ] %d sweeps, flips %zu in the first, log-likelihood %.1f -> %.1f\n", report.sweeps,
+              report.flips_per_sweep.front(), report.initial_log_likelihood, report.final_log_likelihood);
+  EXPECT_GE(incremental_not_free, cells / 2) << "the inverse model should leave the doorway closed or inconclusive";
+  EXPECT_GE(optimized_free, cells - 1) << "the optimized map must open the door";
+  // The walls beside the door stay walls.
+  // (The face lies on a cell boundary: the first of two cell rows that is occupied is the wall.)
+  for (double x : {3.5, 4.0, 4.3, 5.6, 6.0, 6.5}) {
+    EXPECT_TRUE(valueAt(optimized, x, wall_y - 0.05) == 100 || valueAt(optimized, x, wall_y) == 100) << "wall at x=" << x;
+  }
+}
+
+TEST(GlobalOptimizer, SimulatedSessionIsNotWorseThanTheIncrementalMap) {
+  const sim::SimulatedSession session(sim::FloorPlan::office(), sim::SessionSpec::officeTour());
+  Mapper mapper;
+  ScanStore store;
+  for (const Scan& s : session.allScans()) {
+    ASSERT_TRUE(mapper.insert(s).ok());
+    store.add(s);
+  }
+  const GridImage truth = session.plan().groundTruth(0.05);
+  const GridImage incremental = gridImageOf(mapper.slice());
+  GlobalOptimizer optimizer(GlobalOptimizerOptions{}, 0.05);
+  optimizer.build(store.scans());
+  const OptimizeReport cold = optimizer.optimize();
+  const OccupancyScore inc = scoreOccupancy(incremental, truth, 1);
+  const OccupancyScore opt = scoreOccupancy(optimizer.result(), truth, 1);
+  std::printf("[ simulated session ] incremental precision %.4f recall %.4f | optimized (from empty, %d sweeps, "
+              "%.2f s) precision %.4f recall %.4f | store %.1f MB\n",
+              inc.precision, inc.recall, cold.sweeps, cold.optimize_seconds, opt.precision, opt.recall,
+              store.memoryBytes() / 1e6);
+  EXPECT_TRUE(cold.converged);
+  EXPECT_GE(opt.precision, inc.precision);
+  EXPECT_GE(opt.recall, inc.recall - 0.005) << "recall may not drop noticeably";
+
+  optimizer.startFrom(incremental);
+  const OptimizeReport warm = optimizer.optimize();
+  const OccupancyScore opt_warm = scoreOccupancy(optimizer.result(), truth, 1);
+  std::printf("[ simulated session ] optimized (warm start, %d sweeps) precision %.4f recall %.4f\n", warm.sweeps,
+              opt_warm.precision, opt_warm.recall);
+  EXPECT_TRUE(warm.converged);
+}
