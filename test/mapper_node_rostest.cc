@@ -140,6 +140,7 @@ TEST_F(MapperNodeTest, SaveMapWritesLoadableFiles) {
 }
 
 TEST_F(MapperNodeTest, ResetClearsTheMap) {
+  scan_pub_.publish(scan([](double a) { return wallAt(2.0, a); }));  // not relying on earlier tests' map
   ASSERT_TRUE(waitFor([this] { return map_ && cellAt(2.11, 0.0) > 50; }, 20.0));
   std_srvs::Empty empty;
   ASSERT_TRUE(ros::service::call("mapper_node/reset", empty));
