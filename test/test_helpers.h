@@ -2,6 +2,8 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <cstdlib>
+#include <string>
 #include <vector>
 
 #include "octo_slice_mapper/scan.h"
@@ -29,6 +31,13 @@ inline Scan makeScan(const Eigen::Isometry3d& pose, float angle_min, float incre
   scan.range_max = range_max;
   scan.ranges = std::move(ranges);
   return scan;
+}
+
+// The shared datasets: $OSM_DATA_DIR, by default ../shared/data beside the checkout (never
+// copied into the project).
+inline std::string sharedDataDir() {
+  const char* dir = std::getenv("OSM_DATA_DIR");
+  return dir && *dir ? dir : std::string(OSM_SOURCE_DIR) + "/../shared/data";
 }
 
 }  // namespace test_support
