@@ -27,6 +27,8 @@ struct GridImage {
   std::vector<std::int8_t> cells;         // row-major, row 0 at the bottom; 0..100 or -1
   std::int8_t at(int i, int j) const { return cells[std::size_t(j) * width + i]; }
 };
+// The known area of `grid` (plus `margin_cells` of unknown around it); empty if nothing is known.
+GridImage cropToKnown(const GridImage& grid, int margin_cells = 5);
 // The slice's known area (plus `margin_cells` of unknown around it) as a raster.
 GridImage gridImageOf(const SliceGrid& slice, int margin_cells = 5);
 

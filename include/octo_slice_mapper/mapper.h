@@ -7,7 +7,9 @@
 #include <string>
 #include <vector>
 
+#include "octo_slice_mapper/optimized_map.h"
 #include "octo_slice_mapper/scan_inserter.h"
+#include "octo_slice_mapper/scan_store.h"
 #include "octo_slice_mapper/slice_grid.h"
 
 namespace octo_slice_mapper {
@@ -20,6 +22,11 @@ struct MapperOptions {
   double clamp_max = 0.97;
   InsertOptions insert;
   SliceOptions slice;
+  // The global pass: scans are kept (compactly, bounded) for it unless keep_scans is false.
+  bool keep_scans = true;
+  ScanStoreOptions scan_store;
+  // Its no_return_range and max_range are taken from `insert`, so both passes read a scan alike.
+  GlobalOptimizerOptions optimizer;
 };
 
 struct MapperStats {
@@ -42,11 +49,18 @@ class Mapper {
   // Writes PREFIX.{bt,ot,pgm,yaml,png}.
   bool save(const std::string& prefix, std::vector<std::string>* written, std::string* error) const;
 
+  // The global pass over the kept scans (from all-free, or warm from the slice's max-likelihood
+  // state). Does not change the map; see applyOptimized().
+  OptimizedMap optimize(bool warm_start, const ProgressFn& progress = {}) const;
+  // Writes an optimized grid into the octree's slice-band voxels and refreshes the slice.
+  void applyOptimized(const GridImage& grid);
+
   const octomap::OcTree& tree() const { return *tree_; }
   const SliceGrid& slice() const { return *slice_; }
   const MapperStats& stats() const { return stats_; }
   const MapperOptions& options() const { return options_; }
   const ScanInserter& inserter() const { return *inserter_; }
+  const ScanStore& scanStore() const { return store_; }
 
  private:
   void adopt(std::unique_ptr<octomap::OcTree> tree);
@@ -56,6 +70,7 @@ class Mapper {
   std::unique_ptr<octomap::OcTree> tree_;
   std::unique_ptr<ScanInserter> inserter_;
   std::unique_ptr<SliceGrid> slice_;
+  ScanStore store_;
   MapperStats stats_;
 };
 

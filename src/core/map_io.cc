@@ -82,29 +82,40 @@ std::unique_ptr<octomap::OcTree> loadTree(const std::string& path, std::string* 
   return nullptr;
 }
 
-GridImage gridImageOf(const SliceGrid& slice, int margin_cells) {
+GridImage cropToKnown(const GridImage& full, int margin_cells) {
   GridImage grid;
-  grid.resolution = slice.resolution();
-  // Crop to the known cells (plus a margin): the live grid keeps spare room to grow into.
-  int i0 = slice.width(), j0 = slice.height(), i1 = -1, j1 = -1;
-  for (int j = 0; j < slice.height(); ++j) {
-    for (int i = 0; i < slice.width(); ++i) {
-      if (slice.at(i, j) == kUnknownCell) continue;
+  grid.resolution = full.resolution;
+  int i0 = full.width, j0 = full.height, i1 = -1, j1 = -1;
+  for (int j = 0; j < full.height; ++j) {
+    for (int i = 0; i < full.width; ++i) {
+      if (full.at(i, j) == kUnknownCell) continue;
       i0 = std::min(i0, i), i1 = std::max(i1, i), j0 = std::min(j0, j), j1 = std::max(j1, j);
     }
   }
   if (i1 < 0) return grid;
   i0 = std::max(0, i0 - margin_cells), j0 = std::max(0, j0 - margin_cells);
-  i1 = std::min(slice.width() - 1, i1 + margin_cells), j1 = std::min(slice.height() - 1, j1 + margin_cells);
+  i1 = std::min(full.width - 1, i1 + margin_cells), j1 = std::min(full.height - 1, j1 + margin_cells);
   grid.width = i1 - i0 + 1;
   grid.height = j1 - j0 + 1;
-  grid.origin_x = slice.originX() + i0 * grid.resolution;
-  grid.origin_y = slice.originY() + j0 * grid.resolution;
+  grid.origin_x = full.origin_x + i0 * grid.resolution;
+  grid.origin_y = full.origin_y + j0 * grid.resolution;
   grid.cells.reserve(std::size_t(grid.width) * grid.height);
   for (int j = j0; j <= j1; ++j) {
-    for (int i = i0; i <= i1; ++i) grid.cells.push_back(slice.at(i, j));
+    for (int i = i0; i <= i1; ++i) grid.cells.push_back(full.at(i, j));
   }
   return grid;
+}
+
+GridImage gridImageOf(const SliceGrid& slice, int margin_cells) {
+  // The live grid keeps spare room to grow into: crop it to what is known.
+  GridImage full;
+  full.resolution = slice.resolution();
+  full.width = slice.width();
+  full.height = slice.height();
+  full.origin_x = slice.width() ? slice.originX() : 0.0;
+  full.origin_y = slice.height() ? slice.originY() : 0.0;
+  full.cells = slice.data();
+  return cropToKnown(full, margin_cells);
 }
 
 bool savePgmYaml(const GridImage& grid, const std::string& prefix, std::string* error, const PgmOptions& options) {

@@ -6,11 +6,13 @@
 
 namespace octo_slice_mapper {
 
-Mapper::Mapper(const MapperOptions& options) : options_(options) {
+Mapper::Mapper(const MapperOptions& options) : options_(options), store_(options.scan_store) {
   if (!(options.resolution > 0.0)) throw std::invalid_argument("mapper: resolution must be > 0");
   if (!(0.0 < options.clamp_min && options.clamp_min < 0.5 && 0.5 < options.clamp_max && options.clamp_max < 1.0)) {
     throw std::invalid_argument("mapper: need 0 < clamp_min < 0.5 < clamp_max < 1");
   }
+  options_.optimizer.no_return_range = options.insert.model.no_return_clear_distance;
+  options_.optimizer.max_range = options.insert.max_range;
   adopt(std::make_unique<octomap::OcTree>(options.resolution));
 }
 
@@ -28,7 +30,11 @@ void Mapper::adopt(std::unique_ptr<octomap::OcTree> tree) {
   slice_ = std::move(slice);
 }
 
-InsertResult Mapper::insert(const Scan& scan) { return record(inserter_->insert(scan)); }
+InsertResult Mapper::insert(const Scan& scan) {
+  InsertResult result = record(inserter_->insert(scan));
+  if (result.ok() && options_.keep_scans) store_.add(scan);
+  return result;
+}
 
 InsertResult Mapper::insertPoints(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points) {
   return record(inserter_->insertPoints(origin, points, inserter_->model().halfAngleFor(0.0)));
@@ -48,6 +54,7 @@ InsertResult Mapper::record(InsertResult result) {
 
 void Mapper::reset() {
   adopt(std::make_unique<octomap::OcTree>(options_.resolution));
+  store_.clear();
   stats_ = MapperStats();
 }
 
@@ -65,6 +72,20 @@ bool Mapper::load(const std::string& path, std::string* error) {
 
 bool Mapper::save(const std::string& prefix, std::vector<std::string>* written, std::string* error) const {
   return saveMapSet(*tree_, *slice_, prefix, written, error);
+}
+
+
+OptimizedMap Mapper::optimize(bool warm_start, const ProgressFn& progress) const {
+  const GridImage incremental = warm_start ? gridImageOf(*slice_) : GridImage();
+  return optimizeScans(store_.scans(), options_.optimizer, options_.resolution, warm_start ? &incremental : nullptr,
+                       progress);
+}
+
+void Mapper::applyOptimized(const GridImage& grid) {
+  const std::vector<octomap::OcTreeKey> keys = writeGridIntoBand(grid, *slice_, tree_.get());
+  KeyBox box;
+  for (const octomap::OcTreeKey& k : keys) box.add(k);
+  slice_->updateColumns(keys, box);
 }
 
 }  // namespace octo_slice_mapper

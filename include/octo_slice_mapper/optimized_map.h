@@ -1,0 +1,37 @@
+// The global pass applied to a map: run it over the kept scans, carry its result into the octree
+// (so .bt export holds it) and save it beside the incremental map.
+#pragma once
+
+#include <octomap/OcTree.h>
+
+#include <string>
+#include <vector>
+
+#include "octo_slice_mapper/global_optimizer.h"
+#include "octo_slice_mapper/slice_grid.h"
+
+namespace octo_slice_mapper {
+
+struct OptimizedMap {
+  OptimizeReport report;
+  GridImage grid;  // 100 occupied, 0 free, -1 never observed
+};
+
+// Hill climbing over the cells the scans observed, from all-free (the lab's start) or, when
+// `warm_start` is given, from its cells above 50 % (the incremental map's max-likelihood state).
+OptimizedMap optimizeScans(const std::vector<StoredScan>& scans, const GlobalOptimizerOptions& options,
+                           double resolution, const GridImage* warm_start = nullptr,
+                           const ProgressFn& progress = {});
+
+// Sets the slice-band voxels under every known cell of `grid` to the tree's clamping bound
+// (occupied -> max, free -> min); unknown cells are left alone. `grid` must be aligned with the
+// tree's voxel columns (GlobalOptimizer and SliceGrid grids are). Returns the keys written.
+std::vector<octomap::OcTreeKey> writeGridIntoBand(const GridImage& grid, const SliceGrid& slice,
+                                                  octomap::OcTree* tree);
+
+// Writes PREFIX_optimized.{bt,pgm,yaml,png}: the .bt is a copy of `tree` with `grid` written into
+// its band (the live tree is not changed); the 2D files show `grid` itself.
+bool saveOptimizedSet(const octomap::OcTree& tree, const SliceGrid& slice, const GridImage& grid,
+                      const std::string& prefix, std::vector<std::string>* written, std::string* error);
+
+}  // namespace octo_slice_mapper

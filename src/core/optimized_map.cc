@@ -1,0 +1,61 @@
+#include "octo_slice_mapper/optimized_map.h"
+
+#include <chrono>
+
+#include "octo_slice_mapper/map_io.h"
+
+namespace octo_slice_mapper {
+
+OptimizedMap optimizeScans(const std::vector<StoredScan>& scans, const GlobalOptimizerOptions& options,
+                           double resolution, const GridImage* warm_start, const ProgressFn& progress) {
+  const auto t0 = std::chrono::steady_clock::now();
+  GlobalOptimizer optimizer(options, resolution);
+  optimizer.build(scans, progress);
+  if (warm_start) optimizer.startFrom(*warm_start);
+  const double build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  OptimizedMap out;
+  out.report = optimizer.optimize(progress);
+  out.report.build_seconds = build_seconds;
+  out.grid = cropToKnown(optimizer.result());
+  return out;
+}
+
+std::vector<octomap::OcTreeKey> writeGridIntoBand(const GridImage& grid, const SliceGrid& slice,
+                                                  octomap::OcTree* tree) {
+  std::vector<octomap::OcTreeKey> written;
+  const float occupied = tree->getClampingThresMaxLog(), free = tree->getClampingThresMinLog();
+  for (int j = 0; j < grid.height; ++j) {
+    for (int i = 0; i < grid.width; ++i) {
+      const int v = grid.at(i, j);
+      if (v < 0) continue;
+      octomap::OcTreeKey key;
+      if (!tree->coordToKeyChecked(grid.origin_x + (i + 0.5) * grid.resolution,
+                                   grid.origin_y + (j + 0.5) * grid.resolution, 0.0, key)) {
+        continue;
+      }
+      for (unsigned kz = slice.bandMinKey(); kz <= slice.bandMaxKey(); ++kz) {
+        key[2] = static_cast<octomap::key_type>(kz);
+        tree->setNodeValue(key, v > 50 ? occupied : free, /*lazy_eval=*/true);
+        written.push_back(key);
+      }
+    }
+  }
+  tree->updateInnerOccupancy();  // lazy updates leave the inner nodes stale until now
+  return written;
+}
+
+bool saveOptimizedSet(const octomap::OcTree& tree, const SliceGrid& slice, const GridImage& grid,
+                      const std::string& prefix, std::vector<std::string>* written, std::string* error) {
+  octomap::OcTree copy(tree);
+  writeGridIntoBand(grid, slice, &copy);
+  const std::string base = prefix + "_optimized";
+  auto record = [written](const std::string& file) {
+    if (written) written->push_back(file);
+    return true;
+  };
+  if (!saveBinaryTree(copy, base + ".bt", error) || !record(base + ".bt")) return false;
+  if (!savePgmYaml(grid, base, error) || !record(base + ".pgm") || !record(base + ".yaml")) return false;
+  return savePng(grid, base + ".png", error) && record(base + ".png");
+}
+
+}  // namespace octo_slice_mapper

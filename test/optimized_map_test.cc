@@ -1,0 +1,106 @@
+#include "octo_slice_mapper/optimized_map.h"
+
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+
+#include "octo_slice_mapper/map_evaluation.h"
+#include "octo_slice_mapper/map_io.h"
+#include "octo_slice_mapper/mapper.h"
+#include "octo_slice_mapper/sim/session.h"
+
+using namespace octo_slice_mapper;
+
+namespace {
+
+// The office session through the Mapper: it keeps its scans, the global pass runs over them.
+class OptimizedMapTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    const sim::SimulatedSession session(sim::FloorPlan::office(), sim::SessionSpec::officeTour());
+    mapper_ = new Mapper();
+    for (const Scan& s : session.allScans()) ASSERT_TRUE(mapper_->insert(s).ok());
+    truth_ = new GridImage(session.plan().groundTruth(0.05));
+  }
+  static void TearDownTestSuite() {
+    delete mapper_;
+    delete truth_;
+  }
+  static Mapper* mapper_;
+  static GridImage* truth_;
+};
+Mapper* OptimizedMapTest::mapper_ = nullptr;
+GridImage* OptimizedMapTest::truth_ = nullptr;
+
+TEST_F(OptimizedMapTest, MapperKeepsItsScansForTheGlobalPass) {
+  EXPECT_EQ(mapper_->scanStore().scans().size(), mapper_->stats().scans_inserted);
+  EXPECT_GT(mapper_->scanStore().memoryBytes(), 1000000u);
+}
+
+TEST_F(OptimizedMapTest, OptimizedGridGoesIntoTheBandAndIntoTheBtFile) {
+  const OptimizedMap optimized = mapper_->optimize(/*warm_start=*/false);
+  ASSERT_TRUE(optimized.report.converged);
+  const OccupancyScore score = scoreOccupancy(optimized.grid, *truth_, 1);
+  std::printf("[ optimized office ] precision %.4f recall %.4f, %d sweeps\n", score.precision, score.recall,
+              optimized.report.sweeps);
+  EXPECT_GE(score.precision, 0.9);
+
+  char tmpl[] = "/tmp/osm_optimized_XXXXXX";
+  const std::string dir = ::mkdtemp(tmpl);
+  std::vector<std::string> written;
+  std::string error;
+  const std::size_t leaves_before = mapper_->tree().getNumLeafNodes();
+  ASSERT_TRUE(saveOptimizedSet(mapper_->tree(), mapper_->slice(), optimized.grid, dir + "/m", &written, &error))
+      << error;
+  EXPECT_EQ(written, (std::vector<std::string>{dir + "/m_optimized.bt", dir + "/m_optimized.pgm",
+                                               dir + "/m_optimized.yaml", dir + "/m_optimized.png"}));
+  EXPECT_EQ(mapper_->tree().getNumLeafNodes(), leaves_before) << "saving must not change the live tree";
+
+  // The .bt, read back with OctoMap, has the optimized cells in the band: occupied where the grid
+  // is 100, free where it is 0.
+  auto tree = loadTree(dir + "/m_optimized.bt", &error);
+  ASSERT_TRUE(tree) << error;
+  std::size_t checked = 0, agree = 0;
+  const double z = 0.26;
+  for (int j = 0; j < optimized.grid.height; j += 3) {
+    for (int i = 0; i < optimized.grid.width; i += 3) {
+      const int v = optimized.grid.at(i, j);
+      if (v < 0) continue;
+      const octomap::OcTreeNode* node = tree->search(optimized.grid.origin_x + (i + 0.5) * optimized.grid.resolution,
+                                                     optimized.grid.origin_y + (j + 0.5) * optimized.grid.resolution, z);
+      ++checked;
+      if (node && tree->isNodeOccupied(node) == (v == 100)) ++agree;
+    }
+  }
+  ASSERT_GT(checked, 1000u);
+  EXPECT_EQ(agree, checked);
+  GridImage pgm;
+  ASSERT_TRUE(loadPgmYaml(dir + "/m_optimized.yaml", &pgm, &error)) << error;
+  EXPECT_EQ(pgm.width, optimized.grid.width);
+  std::system(("rm -rf " + dir).c_str());
+}
+
+TEST_F(OptimizedMapTest, ApplyingTheResultUpdatesTreeAndSlice) {
+  Mapper mapper;
+  const sim::SimulatedSession session(sim::FloorPlan::doorCorridor(), sim::SessionSpec::corridorPass());
+  for (const Scan& s : session.allScans()) ASSERT_TRUE(mapper.insert(s).ok());
+  const OptimizedMap optimized = mapper.optimize(/*warm_start=*/true);
+  mapper.applyOptimized(optimized.grid);
+  // The slice now shows the optimized state (at the clamping bounds) wherever the grid knows a cell.
+  SliceGrid rebuilt(mapper.tree(), mapper.options().slice);
+  rebuilt.rebuild();
+  std::size_t known = 0;
+  for (int j = 0; j < optimized.grid.height; ++j) {
+    for (int i = 0; i < optimized.grid.width; ++i) {
+      const int v = optimized.grid.at(i, j);
+      if (v < 0) continue;
+      const double x = optimized.grid.origin_x + (i + 0.5) * 0.05, y = optimized.grid.origin_y + (j + 0.5) * 0.05;
+      const int cell = mapper.slice().valueAt(x, y);
+      ASSERT_EQ(cell, rebuilt.valueAt(x, y)) << "incremental slice refresh differs from a rebuild";
+      ASSERT_EQ(cell, v == 100 ? 97 : 12) << "at " << x << ", " << y;
+      ++known;
+    }
+  }
+  EXPECT_GT(known, 500u);
+}
+
+}  // namespace
