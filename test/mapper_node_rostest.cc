@@ -12,6 +12,7 @@
 #include <functional>
 #include <limits>
 
+#include "octo_slice_mapper/Optimize.h"
 #include "octo_slice_mapper/SaveMap.h"
 #include "octo_slice_mapper/map_io.h"
 
@@ -23,6 +24,7 @@ class MapperNodeTest : public ::testing::Test {
  protected:
   void SetUp() override {
     map_sub_ = nh_.subscribe("map", 5, &MapperNodeTest::onMap, this);
+    optimized_sub_ = nh_.subscribe("mapper_node/optimized_map", 5, &MapperNodeTest::onOptimizedMap, this);
     scan_pub_ = nh_.advertise<sensor_msgs::LaserScan>("scan", 20);
     geometry_msgs::TransformStamped odom_base, base_laser;
     odom_base.header.frame_id = "odom";
@@ -39,6 +41,7 @@ class MapperNodeTest : public ::testing::Test {
   }
 
   void onMap(const nav_msgs::OccupancyGrid::ConstPtr& msg) { map_ = msg; }
+  void onOptimizedMap(const nav_msgs::OccupancyGrid::ConstPtr& msg) { optimized_ = msg; }
 
   bool waitFor(const std::function<bool()>& condition, double seconds) {
     const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(seconds);
@@ -64,13 +67,14 @@ class MapperNodeTest : public ::testing::Test {
     return msg;
   }
 
-  int cellAt(double x, double y) const {
-    if (!map_) return -2;
-    const auto& info = map_->info;
+  int cellAt(double x, double y) const { return cellOf(map_, x, y); }
+  static int cellOf(const nav_msgs::OccupancyGrid::ConstPtr& grid, double x, double y) {
+    if (!grid) return -2;
+    const auto& info = grid->info;
     const int i = static_cast<int>(std::floor((x - info.origin.position.x) / info.resolution));
     const int j = static_cast<int>(std::floor((y - info.origin.position.y) / info.resolution));
     if (i < 0 || j < 0 || i >= int(info.width) || j >= int(info.height)) return -1;
-    return map_->data[std::size_t(j) * info.width + i];
+    return grid->data[std::size_t(j) * info.width + i];
   }
 
   // A wall across x = 0.10 + d (laser frame x = d) seen by the beams within +-30 deg.
@@ -79,10 +83,10 @@ class MapperNodeTest : public ::testing::Test {
   }
 
   ros::NodeHandle nh_;
-  ros::Subscriber map_sub_;
+  ros::Subscriber map_sub_, optimized_sub_;
   ros::Publisher scan_pub_;
   tf2_ros::StaticTransformBroadcaster static_tf_;
-  nav_msgs::OccupancyGrid::ConstPtr map_;
+  nav_msgs::OccupancyGrid::ConstPtr map_, optimized_;
 };
 
 TEST_F(MapperNodeTest, ScansBecomeAMapWithTheExpectedCells) {
@@ -148,6 +152,52 @@ TEST_F(MapperNodeTest, ResetClearsTheMap) {
   // And it maps again afterwards.
   scan_pub_.publish(scan([](double a) { return wallAt(2.0, a); }));
   ASSERT_TRUE(waitFor([this] { return cellAt(2.11, 0.0) > 50; }, 20.0));
+}
+
+TEST_F(MapperNodeTest, OptimizeRunsTheGlobalPassAndPublishesItsMap) {
+  for (int k = 0; k < 5; ++k) {
+    scan_pub_.publish(scan([](double a) { return wallAt(2.0, a); }));
+    ros::WallDuration(0.05).sleep();
+  }
+  ASSERT_TRUE(waitFor([this] { return cellAt(2.11, 0.0) > 50; }, 20.0));
+  octo_slice_mapper::Optimize srv;
+  srv.request.warm_start = false;
+  ASSERT_TRUE(ros::service::waitForService("mapper_node/optimize", 10000));
+  ASSERT_TRUE(ros::service::call("mapper_node/optimize", srv));
+  ASSERT_TRUE(srv.response.success) << srv.response.message;
+  EXPECT_TRUE(srv.response.converged);
+  EXPECT_GT(srv.response.final_log_likelihood, srv.response.initial_log_likelihood);
+  EXPECT_EQ(srv.response.sweeps, srv.response.flips_per_sweep.size());
+  EXPECT_GT(srv.response.beams, 100u);
+  EXPECT_GT(srv.response.cells, 100u);
+  // The optimized grid: the wall occupied (100), the space before it free (0), behind it unknown.
+  ASSERT_TRUE(waitFor([this] { return optimized_ != nullptr; }, 10.0)) << "no ~optimized_map";
+  EXPECT_EQ(cellOf(optimized_, 2.12, 0.0), 100);
+  EXPECT_EQ(cellOf(optimized_, 1.0, 0.0), 0);
+  EXPECT_EQ(cellOf(optimized_, 2.6, 0.0), -1);
+}
+
+TEST_F(MapperNodeTest, OptimizeOnSaveWritesTheOptimizedFilesToo) {
+  ::mkdir(kMapsDir, 0755);
+  for (int k = 0; k < 3; ++k) {
+    scan_pub_.publish(scan([](double a) { return wallAt(2.0, a); }));
+    ros::WallDuration(0.1).sleep();
+  }
+  ros::WallDuration(0.5).sleep();
+  octo_slice_mapper::SaveMap srv;
+  srv.request.prefix = "rostest_opt";
+  ASSERT_TRUE(ros::service::waitForService("mapper_node_opt/save_map", 10000));
+  ASSERT_TRUE(ros::service::call("mapper_node_opt/save_map", srv));
+  ASSERT_TRUE(srv.response.success) << srv.response.message;
+  ASSERT_EQ(srv.response.files.size(), 9u) << srv.response.message;
+  std::string error;
+  auto tree = octo_slice_mapper::loadTree(std::string(kMapsDir) + "/rostest_opt_optimized.bt", &error);
+  ASSERT_TRUE(tree) << error;
+  const octomap::OcTreeNode* wall = tree->search(2.12, 0.0, 0.26);
+  ASSERT_NE(wall, nullptr);
+  EXPECT_TRUE(tree->isNodeOccupied(wall));
+  octo_slice_mapper::GridImage grid;
+  ASSERT_TRUE(octo_slice_mapper::loadPgmYaml(std::string(kMapsDir) + "/rostest_opt_optimized.yaml", &grid, &error)) << error;
 }
 
 }  // namespace

@@ -49,7 +49,7 @@ TEST_F(OptimizedMapTest, OptimizedGridGoesIntoTheBandAndIntoTheBtFile) {
   std::vector<std::string> written;
   std::string error;
   const std::size_t leaves_before = mapper_->tree().getNumLeafNodes();
-  ASSERT_TRUE(saveOptimizedSet(mapper_->tree(), mapper_->slice(), optimized.grid, dir + "/m", &written, &error))
+  ASSERT_TRUE(saveOptimizedSet(mapper_->tree(), mapper_->slice().bandMinKey(), mapper_->slice().bandMaxKey(), optimized.grid, dir + "/m", &written, &error))
       << error;
   EXPECT_EQ(written, (std::vector<std::string>{dir + "/m_optimized.bt", dir + "/m_optimized.pgm",
                                                dir + "/m_optimized.yaml", dir + "/m_optimized.png"}));

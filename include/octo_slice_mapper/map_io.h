@@ -46,8 +46,9 @@ bool loadPgmYaml(const std::string& yaml_path, GridImage* grid, std::string* err
 // light blue-grey, north up.
 bool savePng(const GridImage& grid, const std::string& path, std::string* error);
 
-// Writes PREFIX.bt, .ot, .pgm, .yaml and .png; appends the files written. Stops at the first error.
-bool saveMapSet(const octomap::OcTree& tree, const SliceGrid& slice, const std::string& prefix,
+// Writes PREFIX.bt, .ot (from `tree`), .pgm, .yaml and .png (from `slice`); appends the files
+// written. Stops at the first error.
+bool saveMapSet(const octomap::OcTree& tree, const GridImage& slice, const std::string& prefix,
                 std::vector<std::string>* written, std::string* error);
 
 }  // namespace octo_slice_mapper

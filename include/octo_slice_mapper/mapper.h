@@ -29,6 +29,16 @@ struct MapperOptions {
   GlobalOptimizerOptions optimizer;
 };
 
+// What saving and the global pass need, copied quickly (under the caller's lock) so that the
+// slow work can run on the copy while mapping goes on.
+struct MapSnapshot {
+  std::unique_ptr<octomap::OcTree> tree;
+  GridImage slice;                  // cropped to the known area
+  unsigned band_lo = 0, band_hi = 0;  // the slice's z keys
+  std::vector<StoredScan> scans;    // only when asked for
+  std::uint64_t scans_inserted = 0;
+};
+
 struct MapperStats {
   std::uint64_t scans_inserted = 0;
   std::uint64_t scans_rejected = 0;  // whole scans refused (bad header, ...)
@@ -54,6 +64,7 @@ class Mapper {
   OptimizedMap optimize(bool warm_start, const ProgressFn& progress = {}) const;
   // Writes an optimized grid into the octree's slice-band voxels and refreshes the slice.
   void applyOptimized(const GridImage& grid);
+  MapSnapshot snapshot(bool with_scans) const;
 
   const octomap::OcTree& tree() const { return *tree_; }
   const SliceGrid& slice() const { return *slice_; }

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "octo_slice_mapper/global_optimizer.h"
-#include "octo_slice_mapper/slice_grid.h"
+#include "octo_slice_mapper/map_io.h"
 
 namespace octo_slice_mapper {
 
@@ -26,12 +26,13 @@ OptimizedMap optimizeScans(const std::vector<StoredScan>& scans, const GlobalOpt
 // Sets the slice-band voxels under every known cell of `grid` to the tree's clamping bound
 // (occupied -> max, free -> min); unknown cells are left alone. `grid` must be aligned with the
 // tree's voxel columns (GlobalOptimizer and SliceGrid grids are). Returns the keys written.
-std::vector<octomap::OcTreeKey> writeGridIntoBand(const GridImage& grid, const SliceGrid& slice,
+// The band is the voxel layers with z keys band_lo..band_hi (SliceGrid::bandMinKey/MaxKey).
+std::vector<octomap::OcTreeKey> writeGridIntoBand(const GridImage& grid, unsigned band_lo, unsigned band_hi,
                                                   octomap::OcTree* tree);
 
 // Writes PREFIX_optimized.{bt,pgm,yaml,png}: the .bt is a copy of `tree` with `grid` written into
 // its band (the live tree is not changed); the 2D files show `grid` itself.
-bool saveOptimizedSet(const octomap::OcTree& tree, const SliceGrid& slice, const GridImage& grid,
+bool saveOptimizedSet(const octomap::OcTree& tree, unsigned band_lo, unsigned band_hi, const GridImage& grid,
                       const std::string& prefix, std::vector<std::string>* written, std::string* error);
 
 }  // namespace octo_slice_mapper

@@ -263,7 +263,7 @@ bool savePng(const GridImage& grid, const std::string& path, std::string* error)
   return writeFileAtomically(path, bytes, error);
 }
 
-bool saveMapSet(const octomap::OcTree& tree, const SliceGrid& slice, const std::string& prefix,
+bool saveMapSet(const octomap::OcTree& tree, const GridImage& grid, const std::string& prefix,
                 std::vector<std::string>* written, std::string* error) {
   auto record = [written](const std::string& file) {
     if (written) written->push_back(file);
@@ -271,7 +271,6 @@ bool saveMapSet(const octomap::OcTree& tree, const SliceGrid& slice, const std::
   };
   if (!saveBinaryTree(tree, prefix + ".bt", error) || !record(prefix + ".bt")) return false;
   if (!saveFullTree(tree, prefix + ".ot", error) || !record(prefix + ".ot")) return false;
-  const GridImage grid = gridImageOf(slice);
   if (!savePgmYaml(grid, prefix, error) || !record(prefix + ".pgm") || !record(prefix + ".yaml")) return false;
   return savePng(grid, prefix + ".png", error) && record(prefix + ".png");
 }

@@ -71,7 +71,7 @@ bool Mapper::load(const std::string& path, std::string* error) {
 }
 
 bool Mapper::save(const std::string& prefix, std::vector<std::string>* written, std::string* error) const {
-  return saveMapSet(*tree_, *slice_, prefix, written, error);
+  return saveMapSet(*tree_, gridImageOf(*slice_), prefix, written, error);
 }
 
 
@@ -81,8 +81,19 @@ OptimizedMap Mapper::optimize(bool warm_start, const ProgressFn& progress) const
                        progress);
 }
 
+MapSnapshot Mapper::snapshot(bool with_scans) const {
+  MapSnapshot snap;
+  snap.tree = std::make_unique<octomap::OcTree>(*tree_);
+  snap.slice = gridImageOf(*slice_);
+  snap.band_lo = slice_->bandMinKey();
+  snap.band_hi = slice_->bandMaxKey();
+  if (with_scans) snap.scans = store_.scans();
+  snap.scans_inserted = stats_.scans_inserted;
+  return snap;
+}
+
 void Mapper::applyOptimized(const GridImage& grid) {
-  const std::vector<octomap::OcTreeKey> keys = writeGridIntoBand(grid, *slice_, tree_.get());
+  const std::vector<octomap::OcTreeKey> keys = writeGridIntoBand(grid, slice_->bandMinKey(), slice_->bandMaxKey(), tree_.get());
   KeyBox box;
   for (const octomap::OcTreeKey& k : keys) box.add(k);
   slice_->updateColumns(keys, box);

@@ -20,7 +20,7 @@ OptimizedMap optimizeScans(const std::vector<StoredScan>& scans, const GlobalOpt
   return out;
 }
 
-std::vector<octomap::OcTreeKey> writeGridIntoBand(const GridImage& grid, const SliceGrid& slice,
+std::vector<octomap::OcTreeKey> writeGridIntoBand(const GridImage& grid, unsigned band_lo, unsigned band_hi,
                                                   octomap::OcTree* tree) {
   std::vector<octomap::OcTreeKey> written;
   const float occupied = tree->getClampingThresMaxLog(), free = tree->getClampingThresMinLog();
@@ -33,7 +33,7 @@ std::vector<octomap::OcTreeKey> writeGridIntoBand(const GridImage& grid, const S
                                    grid.origin_y + (j + 0.5) * grid.resolution, 0.0, key)) {
         continue;
       }
-      for (unsigned kz = slice.bandMinKey(); kz <= slice.bandMaxKey(); ++kz) {
+      for (unsigned kz = band_lo; kz <= band_hi; ++kz) {
         key[2] = static_cast<octomap::key_type>(kz);
         tree->setNodeValue(key, v > 50 ? occupied : free, /*lazy_eval=*/true);
         written.push_back(key);
@@ -41,13 +41,14 @@ std::vector<octomap::OcTreeKey> writeGridIntoBand(const GridImage& grid, const S
     }
   }
   tree->updateInnerOccupancy();  // lazy updates leave the inner nodes stale until now
+  tree->prune();                 // and unpruned: merge identical children again (lossless)
   return written;
 }
 
-bool saveOptimizedSet(const octomap::OcTree& tree, const SliceGrid& slice, const GridImage& grid,
+bool saveOptimizedSet(const octomap::OcTree& tree, unsigned band_lo, unsigned band_hi, const GridImage& grid,
                       const std::string& prefix, std::vector<std::string>* written, std::string* error) {
   octomap::OcTree copy(tree);
-  writeGridIntoBand(grid, slice, &copy);
+  writeGridIntoBand(grid, band_lo, band_hi, &copy);
   const std::string base = prefix + "_optimized";
   auto record = [written](const std::string& file) {
     if (written) written->push_back(file);

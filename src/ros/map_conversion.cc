@@ -20,6 +20,21 @@ void toOccupancyGrid(const SliceGrid& slice, const std::string& frame_id, const 
   msg->data = slice.data();
 }
 
+void toOccupancyGrid(const GridImage& grid, double z, const std::string& frame_id, const ros::Time& stamp,
+                     nav_msgs::OccupancyGrid* msg) {
+  msg->header.frame_id = frame_id;
+  msg->header.stamp = stamp;
+  msg->info.map_load_time = stamp;
+  msg->info.resolution = static_cast<float>(grid.resolution);
+  msg->info.width = static_cast<std::uint32_t>(grid.width);
+  msg->info.height = static_cast<std::uint32_t>(grid.height);
+  msg->info.origin.position.x = grid.origin_x;
+  msg->info.origin.position.y = grid.origin_y;
+  msg->info.origin.position.z = z;
+  msg->info.origin.orientation.w = 1.0;
+  msg->data = grid.cells;
+}
+
 visualization_msgs::MarkerArray occupiedVoxelMarkers(const octomap::OcTree& tree, const std::string& frame_id,
                                                      const ros::Time& stamp) {
   visualization_msgs::MarkerArray array;

@@ -6,12 +6,16 @@
 #include <ros/time.h>
 #include <visualization_msgs/MarkerArray.h>
 
+#include "octo_slice_mapper/map_io.h"
 #include "octo_slice_mapper/slice_grid.h"
 
 namespace octo_slice_mapper {
 namespace ros_adapter {
 
 void toOccupancyGrid(const SliceGrid& slice, const std::string& frame_id, const ros::Time& stamp,
+                     nav_msgs::OccupancyGrid* msg);
+// A raster (e.g. the optimized map) at height `z`.
+void toOccupancyGrid(const GridImage& grid, double z, const std::string& frame_id, const ros::Time& stamp,
                      nav_msgs::OccupancyGrid* msg);
 
 // One CUBE_LIST of the occupied leaves (coloured by height) for a 3D view in rviz. An empty map

@@ -9,12 +9,25 @@
 #include <cstdio>
 #include <sstream>
 
+#include "octo_slice_mapper/map_io.h"
 #include "octo_slice_mapper/save_path.h"
 #include "ros/laser_scan_conversion.h"
 #include "ros/map_conversion.h"
 
 namespace octo_slice_mapper {
 namespace ros_adapter {
+
+namespace {
+
+std::string describe(const OptimizeReport& r) {
+  char text[256];
+  std::snprintf(text, sizeof(text), "global pass: %d sweeps (%s), log-likelihood %.1f -> %.1f, %zu cells, %zu beams, %.2f s",
+                r.sweeps, r.converged ? "converged" : "stopped at max_sweeps", r.initial_log_likelihood,
+                r.final_log_likelihood, r.cells, r.beams, r.build_seconds + r.optimize_seconds);
+  return text;
+}
+
+}  // namespace
 
 MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh),
@@ -34,8 +47,14 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   map_pub_ = nh_.advertise<nav_msgs::OccupancyGrid>("map", 1, true);
   metadata_pub_ = nh_.advertise<nav_msgs::MapMetaData>("map_metadata", 1, true);
   markers_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("occupied_cells", 1, true);
-  save_srv_ = pnh_.advertiseService("save_map", &MapperNode::onSaveMap, this);
-  reset_srv_ = pnh_.advertiseService("reset", &MapperNode::onReset, this);
+  optimized_pub_ = pnh_.advertise<nav_msgs::OccupancyGrid>("optimized_map", 1, true);
+  ros::NodeHandle services(pnh_);
+  services.setCallbackQueue(&service_queue_);
+  save_srv_ = services.advertiseService("save_map", &MapperNode::onSaveMap, this);
+  reset_srv_ = services.advertiseService("reset", &MapperNode::onReset, this);
+  optimize_srv_ = services.advertiseService("optimize", &MapperNode::onOptimize, this);
+  service_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &service_queue_);
+  service_spinner_->start();
 
   const uint32_t queue = static_cast<uint32_t>(std::max(1, options_.scan_queue_size));
   scan_sub_.subscribe(nh_, "scan", queue);
@@ -163,18 +182,77 @@ bool MapperNode::onSaveMap(SaveMap::Request& req, SaveMap::Response& res) {
     ROS_WARN("~save_map: %s", error.c_str());
     return true;
   }
-  std::lock_guard<std::mutex> lock(mutex_);
-  res.success = mapper_.save(prefix, &res.files, &error);
-  res.message = res.success ? "saved " + prefix + ".{bt,ot,pgm,yaml,png}" : error;
+  std::lock_guard<std::mutex> one_at_a_time(service_mutex_);
+  MapSnapshot snapshot;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    snapshot = mapper_.snapshot(/*with_scans=*/options_.optimize_on_save);
+  }
+  res.success = saveMapSet(*snapshot.tree, snapshot.slice, prefix, &res.files, &error);
+  std::string global_pass;
+  if (res.success && options_.optimize_on_save && !snapshot.scans.empty()) {
+    const OptimizedMap optimized = optimizeSnapshot(snapshot, options_.optimize_warm_start);
+    global_pass = "; " + describe(optimized.report);
+    res.success = saveOptimizedSet(*snapshot.tree, snapshot.band_lo, snapshot.band_hi, optimized.grid, prefix,
+                                   &res.files, &error);
+  }
   if (res.success) {
+    res.message = "saved";
+    for (const std::string& f : res.files) res.message += " " + f;
+    res.message += global_pass;
     ROS_INFO("~save_map: %s", res.message.c_str());
   } else {
+    res.message = error;
     ROS_ERROR("~save_map: %s", res.message.c_str());
   }
   return true;
 }
 
+OptimizedMap MapperNode::optimizeSnapshot(const MapSnapshot& snapshot, bool warm_start) {
+  ROS_INFO("global pass over %zu scans (start: %s)", snapshot.scans.size(), warm_start ? "incremental map" : "all free");
+  const OptimizedMap optimized = optimizeScans(
+      snapshot.scans, mapper_.options().optimizer, snapshot.tree->getResolution(), warm_start ? &snapshot.slice : nullptr,
+      [](const std::string& stage, double fraction) { ROS_INFO_THROTTLE(2.0, "global pass: %s %.0f %%", stage.c_str(), 100.0 * fraction); });
+  ROS_INFO("%s", describe(optimized.report).c_str());
+  nav_msgs::OccupancyGrid grid;
+  toOccupancyGrid(optimized.grid, mapper_.options().slice.min_z, options_.frame_id, ros::Time::now(), &grid);
+  if (ros::ok()) optimized_pub_.publish(grid);
+  if (options_.write_optimized_into_map) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    mapper_.applyOptimized(optimized.grid);
+    map_changed_ = true;
+  }
+  return optimized;
+}
+
+bool MapperNode::onOptimize(Optimize::Request& req, Optimize::Response& res) {
+  std::lock_guard<std::mutex> one_at_a_time(service_mutex_);
+  MapSnapshot snapshot;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    snapshot = mapper_.snapshot(/*with_scans=*/true);
+  }
+  if (snapshot.scans.empty()) {
+    res.success = false;
+    res.message = "no scans kept (none inserted yet, or ~keep_scans is false)";
+    return true;
+  }
+  const OptimizeReport r = optimizeSnapshot(snapshot, req.warm_start).report;
+  res.success = true;
+  res.initial_log_likelihood = r.initial_log_likelihood;
+  res.final_log_likelihood = r.final_log_likelihood;
+  res.flips_per_sweep.assign(r.flips_per_sweep.begin(), r.flips_per_sweep.end());
+  res.sweeps = static_cast<std::uint32_t>(r.sweeps);
+  res.converged = r.converged;
+  res.cells = static_cast<std::uint32_t>(r.cells);
+  res.beams = static_cast<std::uint32_t>(r.beams);
+  res.seconds = r.build_seconds + r.optimize_seconds;
+  res.message = r.converged ? "converged: no single flip improves the map" : "stopped after ~max_sweeps sweeps";
+  return true;
+}
+
 bool MapperNode::onReset(std_srvs::Empty::Request&, std_srvs::Empty::Response&) {
+  std::lock_guard<std::mutex> one_at_a_time(service_mutex_);
   std::lock_guard<std::mutex> lock(mutex_);
   mapper_.reset();
   map_changed_ = true;
@@ -199,6 +277,7 @@ std::string MapperNode::summary() const {
 
 // Runs after ros::spin() returned; roscpp has shut rosconsole down by then, so print directly.
 void MapperNode::shutdown() {
+  service_spinner_->stop();
   if (!options_.save_on_shutdown.empty()) {
     SaveMap::Request req;
     SaveMap::Response res;

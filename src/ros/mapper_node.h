@@ -1,9 +1,12 @@
-// The ROS face of the mapper: tf2-filtered scans in, OccupancyGrid / markers out, save and reset.
-// All mapping logic lives in the core Mapper; this class only converts and wires.
+// The ROS face of the mapper: tf2-filtered scans in, OccupancyGrid / markers out, save, reset and
+// the global pass. All mapping logic lives in the core Mapper; this class only converts and wires.
+// Scans are handled in order on the global callback queue; services run on a queue and thread of
+// their own, and save / optimize work on a snapshot, so they don't hold up scan insertion.
 #pragma once
 
 #include <message_filters/subscriber.h>
 #include <nav_msgs/OccupancyGrid.h>
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <sensor_msgs/LaserScan.h>
 #include <sensor_msgs/PointCloud2.h>
@@ -17,6 +20,7 @@
 #include <mutex>
 #include <string>
 
+#include "octo_slice_mapper/Optimize.h"
 #include "octo_slice_mapper/SaveMap.h"
 #include "octo_slice_mapper/mapper.h"
 #include "ros/node_parameters.h"
@@ -42,6 +46,10 @@ class MapperNode {
   void publish(const ros::TimerEvent&);
   bool onSaveMap(SaveMap::Request& req, SaveMap::Response& res);
   bool onReset(std_srvs::Empty::Request&, std_srvs::Empty::Response&);
+  bool onOptimize(Optimize::Request& req, Optimize::Response& res);
+  // The global pass on a snapshot: publishes ~optimized_map and, if configured, writes the result
+  // into the live map's slice band.
+  OptimizedMap optimizeSnapshot(const MapSnapshot& snapshot, bool warm_start);
 
   ros::NodeHandle nh_, pnh_;
   NodeOptions options_;
@@ -55,8 +63,11 @@ class MapperNode {
   message_filters::Subscriber<sensor_msgs::PointCloud2> cloud_sub_;
   std::unique_ptr<tf2_ros::MessageFilter<sensor_msgs::PointCloud2>> cloud_filter_;
 
-  ros::Publisher map_pub_, metadata_pub_, markers_pub_;
-  ros::ServiceServer save_srv_, reset_srv_;
+  ros::Publisher map_pub_, metadata_pub_, markers_pub_, optimized_pub_;
+  ros::CallbackQueue service_queue_;
+  std::unique_ptr<ros::AsyncSpinner> service_spinner_;
+  std::mutex service_mutex_;  // one save / optimize / reset at a time
+  ros::ServiceServer save_srv_, reset_srv_, optimize_srv_;
   ros::Timer publish_timer_;
 
   bool map_changed_ = true;

@@ -2,6 +2,8 @@
 
 #include <ros/package.h>
 
+#include <algorithm>
+
 namespace octo_slice_mapper {
 namespace ros_adapter {
 
@@ -22,6 +24,19 @@ MapperOptions readMapperOptions(const ros::NodeHandle& pnh) {
   pnh.param("p_occupied", m.p_occupied, m.p_occupied);
   pnh.param("prior", m.prior, m.prior);
   pnh.param("no_return_clear_distance", m.no_return_clear_distance, m.no_return_clear_distance);
+  pnh.param("keep_scans", o.keep_scans, o.keep_scans);
+  pnh.param("keyframe_min_distance", o.scan_store.min_distance, o.scan_store.min_distance);
+  pnh.param("keyframe_min_rotation", o.scan_store.min_rotation, o.scan_store.min_rotation);
+  int max_scans = static_cast<int>(o.scan_store.max_scans);
+  pnh.param("max_kept_scans", max_scans, max_scans);
+  o.scan_store.max_scans = static_cast<std::size_t>(std::max(0, max_scans));
+  ForwardSensorModelOptions& f = o.optimizer.model;
+  pnh.param("forward_z_hit", f.z_hit, f.z_hit);
+  pnh.param("forward_z_rand", f.z_rand, f.z_rand);
+  pnh.param("forward_z_miss", f.z_miss, f.z_miss);
+  pnh.param("forward_sigma_base", f.sigma_base, f.sigma_base);
+  pnh.param("forward_sigma_per_meter", f.sigma_per_meter, f.sigma_per_meter);
+  pnh.param("max_sweeps", o.optimizer.max_sweeps, o.optimizer.max_sweeps);
   pnh.param("slice_min_z", o.slice.min_z, o.slice.min_z);
   pnh.param("slice_max_z", o.slice.max_z, o.slice.max_z);
   return o;
@@ -37,6 +52,9 @@ NodeOptions readNodeOptions(const ros::NodeHandle& pnh) {
   pnh.param("map_file", o.map_file, o.map_file);
   pnh.param("save_on_shutdown", o.save_on_shutdown, o.save_on_shutdown);
   pnh.param("allow_any_path", o.allow_any_path, o.allow_any_path);
+  pnh.param("optimize_on_save", o.optimize_on_save, o.optimize_on_save);
+  pnh.param("optimize_warm_start", o.optimize_warm_start, o.optimize_warm_start);
+  pnh.param("write_optimized_into_map", o.write_optimized_into_map, o.write_optimized_into_map);
   const std::string package = ros::package::getPath("octo_slice_mapper");
   pnh.param("maps_dir", o.maps_dir, package.empty() ? std::string("maps") : package + "/maps");
   return o;

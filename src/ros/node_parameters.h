@@ -20,6 +20,9 @@ struct NodeOptions {
   std::string save_on_shutdown;      // prefix written when the node stops ("" = don't)
   std::string maps_dir;              // where ~save_map writes relative prefixes
   bool allow_any_path = false;       // let ~save_map write outside maps_dir
+  bool optimize_on_save = false;     // every save also runs the global pass: PREFIX_optimized.*
+  bool optimize_warm_start = false;  // ... starting from the incremental map instead of all-free
+  bool write_optimized_into_map = true;  // the global pass's result goes into the octree's slice band
 };
 
 MapperOptions readMapperOptions(const ros::NodeHandle& pnh);

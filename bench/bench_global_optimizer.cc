@@ -1,0 +1,150 @@
+// bench_global_optimizer: the global pass (Task 2) on the shared CARMEN datasets at 0.05 m.
+//
+//   bench_global_optimizer [--data DIR] [--repeats N] [--holdout-every N] [--only intel|fr079]
+//
+// For each dataset, in one process:
+//  1. speed: all scans into a Mapper, then the global pass from all-free (the lab's start) and
+//     warm from the incremental map, each `repeats` times: median seconds (index + sweeps),
+//     sweeps, flips, and the process's peak resident memory during the pass (VmHWM, reset before
+//     each run through /proc/self/clear_refs; it includes the loaded log and the octree);
+//  2. quality on scans the maps never saw: maps from all scans but every Nth, then each held-out
+//     return is cast through the incremental, the optimized (from empty) and the optimized (warm)
+//     map; mean / median absolute error and the share within 0.10 m.
+// Targets (issue 3): Intel <= 10 s, Freiburg 079 <= 60 s, peak memory <= 1 GB.
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "octo_slice_mapper/carmen_log.h"
+#include "octo_slice_mapper/map_evaluation.h"
+#include "octo_slice_mapper/mapper.h"
+
+namespace osm = octo_slice_mapper;
+
+namespace {
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0.0 : v[v.size() / 2];
+}
+
+// Resets the kernel's peak-RSS mark of this process (Linux >= 4.0); false where not allowed.
+bool resetPeakRss() {
+  std::ofstream clear("/proc/self/clear_refs");
+  clear << "5";
+  return static_cast<bool>(clear.flush());
+}
+
+double peakRssMb() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.compare(0, 6, "VmHWM:") == 0) return std::atof(line.c_str() + 6) / 1024.0;
+  }
+  return -1.0;
+}
+
+struct Dataset {
+  std::string name, path;
+  double target_seconds;
+};
+
+struct Timing {
+  double seconds = 0.0, peak_mb = 0.0;
+  int sweeps = 0;
+  std::size_t flips = 0, cells = 0, beams = 0;
+  bool converged = false;
+};
+
+Timing timeGlobalPass(const osm::Mapper& mapper, bool warm_start, int repeats) {
+  std::vector<double> seconds;
+  Timing t;
+  for (int r = 0; r < repeats; ++r) {
+    resetPeakRss();
+    const osm::OptimizedMap result = mapper.optimize(warm_start);
+    t.peak_mb = std::max(t.peak_mb, peakRssMb());
+    seconds.push_back(result.report.build_seconds + result.report.optimize_seconds);
+    t.sweeps = result.report.sweeps;
+    t.converged = result.report.converged;
+    t.cells = result.report.cells;
+    t.beams = result.report.beams;
+    t.flips = 0;
+    for (std::size_t f : result.report.flips_per_sweep) t.flips += f;
+  }
+  t.seconds = median(seconds);
+  return t;
+}
+
+void printErrors(const char* name, const osm::RangePredictionError& e) {
+  std::printf("  %-28s %8zu %10.3f %10.3f %10.3f %10zu\n", name, e.beams, e.mean_abs_error, e.median_abs_error,
+              e.within_10cm, e.nothing_hit);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const char* env = std::getenv("OSM_DATA_DIR");
+  std::string data = env && *env ? env : "../shared/data", only;
+  int repeats = 3, holdout_every = 10;
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "--data" && i + 1 < argc) data = argv[++i];
+    else if (arg == "--repeats" && i + 1 < argc) repeats = std::max(1, std::atoi(argv[++i]));
+    else if (arg == "--holdout-every" && i + 1 < argc) holdout_every = std::max(2, std::atoi(argv[++i]));
+    else if (arg == "--only" && i + 1 < argc) only = argv[++i];
+    else {
+      std::fprintf(stderr, "usage: bench_global_optimizer [--data DIR] [--repeats N] [--holdout-every N] [--only NAME]\n");
+      return 2;
+    }
+  }
+  const bool rss_resettable = resetPeakRss();
+  const std::vector<Dataset> datasets = {
+      {"intel", data + "/intel_corrected/intel-corrected.log.gz", 10.0},
+      {"fr079", data + "/fr079_corrected/freiburg-079-corrected.log.gz", 60.0}};
+  bool all_met = true;
+  for (const Dataset& d : datasets) {
+    if (!only.empty() && only != d.name) continue;
+    std::string error;
+    const std::vector<osm::LogScan> log = osm::readCarmenLog(d.path, {}, &error);
+    if (log.empty()) {
+      std::fprintf(stderr, "bench_global_optimizer: %s\n", error.empty() ? "no scans" : error.c_str());
+      return 1;
+    }
+    osm::Mapper all, train;
+    std::vector<osm::Scan> held_out;
+    for (std::size_t k = 0; k < log.size(); ++k) {
+      all.insert(log[k].scan);
+      if (k % holdout_every == std::size_t(holdout_every) - 1) held_out.push_back(log[k].scan);
+      else train.insert(log[k].scan);
+    }
+    std::printf("== %s: %zu scans x %zu beams, 0.05 m, %d repeats (median)\n", d.name.c_str(), log.size(),
+                log.front().scan.ranges.size(), repeats);
+    std::printf("  %-28s %8s %7s %8s %9s %9s %10s\n", "global pass, all scans", "seconds", "sweeps", "flips",
+                "converged", "peak MB", "target");
+    Timing t;
+    for (bool warm : {false, true}) {
+      t = timeGlobalPass(all, warm, repeats);
+      const bool met = t.seconds <= d.target_seconds && t.peak_mb <= 1024.0;
+      all_met = all_met && met;
+      std::printf("  %-28s %8.2f %7d %8zu %9s %9.0f %5.0f s %s\n", warm ? "from incremental (warm)" : "from empty (lab)",
+                  t.seconds, t.sweeps, t.flips, t.converged ? "yes" : "no", t.peak_mb, d.target_seconds,
+                  met ? "met" : "MISSED");
+    }
+    std::printf("  (%zu observed cells, %zu beams; scan store %.1f MB)\n", t.cells, t.beams,
+                all.scanStore().memoryBytes() / 1e6);
+
+    const osm::GridImage incremental = osm::gridImageOf(train.slice());
+    const osm::GridImage cold = train.optimize(false).grid, warm = train.optimize(true).grid;
+    std::printf("  held out every %dth scan    %8s %10s %10s %10s %10s\n", holdout_every, "beams", "mean m",
+                "median m", "<=0.10 m", "no hit");
+    printErrors("incremental (inverse model)", osm::predictRanges(incremental, held_out));
+    printErrors("optimized from empty", osm::predictRanges(cold, held_out));
+    printErrors("optimized warm", osm::predictRanges(warm, held_out));
+  }
+  if (!rss_resettable) std::printf("note: /proc/self/clear_refs not writable: peak MB is the process's peak so far\n");
+  std::printf("targets %s\n", all_met ? "met" : "MISSED");
+  return 0;
+}
