@@ -84,6 +84,7 @@ int main(int argc, char** argv) {
       ours_returns_only.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count() / scans.size());
     }
     {
+      // The node's whole per-scan work: insertion, slice refresh, and the copy kept for the global pass.
       osm::MapperOptions options;
       options.resolution = resolution;
       osm::Mapper mapper(options);

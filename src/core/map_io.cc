@@ -14,7 +14,7 @@ namespace {
 
 const char kBinaryHeader[] = "# Octomap OcTree binary file";
 const char kFullHeader[] = "# Octomap OcTree file";
-const int kMinPictureSide = 600;  // pixels
+const int kMinPictureSide = 1600;  // pixels: thin walls of big maps stay visible
 
 bool startsWith(const std::string& s, const char* prefix) { return s.compare(0, std::strlen(prefix), prefix) == 0; }
 
