@@ -29,7 +29,9 @@ bool ScanStore::add(const Scan& scan) {
   }
   if (options_.max_scans > 0 && scans_.size() >= options_.max_scans) {
     std::size_t kept = 0;
-    for (std::size_t i = 0; i < scans_.size(); i += 2) scans_[kept++] = std::move(scans_[i]);
+    for (std::size_t i = 0; i < scans_.size(); i += 2, ++kept) {
+      if (i != kept) scans_[kept] = std::move(scans_[i]);  // a self-move would empty the ranges
+    }
     dropped_ += scans_.size() - kept;
     scans_.resize(kept);
   }
