@@ -13,8 +13,9 @@ osm_log() { printf '\033[1m[%s]\033[0m %s\n' "$(basename "$0")" "$*" >&2; }
 osm_build() {
   "$OSM_ROOT/scripts/install-deps"
   osm_log "configuring and building in $OSM_BUILD_DIR"
+  # shellcheck disable=SC2086  # OSM_CMAKE_ARGS holds several words on purpose
   cmake -S "$OSM_ROOT" -B "$OSM_BUILD_DIR" -DPYTHON_EXECUTABLE=/usr/bin/python3 \
-    -DPython3_EXECUTABLE=/usr/bin/python3 -DCATKIN_ENABLE_TESTING=ON "$@" >"$OSM_BUILD_DIR.cmake.log" 2>&1 ||
+    -DPython3_EXECUTABLE=/usr/bin/python3 -DCATKIN_ENABLE_TESTING=ON ${OSM_CMAKE_ARGS:-} "$@" >"$OSM_BUILD_DIR.cmake.log" 2>&1 ||
     { cat "$OSM_BUILD_DIR.cmake.log"; return 1; }
   cmake --build "$OSM_BUILD_DIR" -j"$(nproc)" -- --no-print-directory
 }

@@ -1,4 +1,5 @@
 // Integration test through a real roscore: tf + scans in, map out, services, bad input.
+#include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <gtest/gtest.h>
 #include <nav_msgs/OccupancyGrid.h>
@@ -10,6 +11,7 @@
 
 #include <cmath>
 #include <functional>
+#include <map>
 #include <limits>
 
 #include "octo_slice_mapper/Optimize.h"
@@ -25,6 +27,7 @@ class MapperNodeTest : public ::testing::Test {
   void SetUp() override {
     map_sub_ = nh_.subscribe("map", 5, &MapperNodeTest::onMap, this);
     optimized_sub_ = nh_.subscribe("mapper_node/optimized_map", 5, &MapperNodeTest::onOptimizedMap, this);
+    diagnostics_sub_ = nh_.subscribe("/diagnostics", 20, &MapperNodeTest::onDiagnostics, this);
     scan_pub_ = nh_.advertise<sensor_msgs::LaserScan>("scan", 20);
     geometry_msgs::TransformStamped odom_base, base_laser;
     odom_base.header.frame_id = "odom";
@@ -42,6 +45,17 @@ class MapperNodeTest : public ::testing::Test {
 
   void onMap(const nav_msgs::OccupancyGrid::ConstPtr& msg) { map_ = msg; }
   void onOptimizedMap(const nav_msgs::OccupancyGrid::ConstPtr& msg) { optimized_ = msg; }
+  // The latest value of `key` in /mapper_node's diagnostics, or -1.
+  void onDiagnostics(const diagnostic_msgs::DiagnosticArray::ConstPtr& msg) {
+    for (const auto& status : msg->status) {
+      if (status.name.rfind("/mapper_node:", 0) != 0) continue;
+      for (const auto& kv : status.values) diagnostics_[kv.key] = std::atof(kv.value.c_str());
+    }
+  }
+  double diagnostic(const std::string& key) const {
+    const auto it = diagnostics_.find(key);
+    return it == diagnostics_.end() ? -1.0 : it->second;
+  }
 
   bool waitFor(const std::function<bool()>& condition, double seconds) {
     const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(seconds);
@@ -83,7 +97,8 @@ class MapperNodeTest : public ::testing::Test {
   }
 
   ros::NodeHandle nh_;
-  ros::Subscriber map_sub_, optimized_sub_;
+  ros::Subscriber map_sub_, optimized_sub_, diagnostics_sub_;
+  std::map<std::string, double> diagnostics_;
   ros::Publisher scan_pub_;
   tf2_ros::StaticTransformBroadcaster static_tf_;
   nav_msgs::OccupancyGrid::ConstPtr map_, optimized_;
@@ -198,6 +213,42 @@ TEST_F(MapperNodeTest, OptimizeOnSaveWritesTheOptimizedFilesToo) {
   EXPECT_TRUE(tree->isNodeOccupied(wall));
   octo_slice_mapper::GridImage grid;
   ASSERT_TRUE(octo_slice_mapper::loadPgmYaml(std::string(kMapsDir) + "/rostest_opt_optimized.yaml", &grid, &error)) << error;
+}
+
+TEST_F(MapperNodeTest, DiagnosticsCountSkippedScansPerReason) {
+  ASSERT_TRUE(waitFor([this] { return diagnostic("scans_received") >= 0; }, 10.0)) << "no /diagnostics";
+  const double unknown_before = std::max(0.0, diagnostic("skipped_unknown_frame"));
+  const double mismatch_before = std::max(0.0, diagnostic("skipped_length_mismatch"));
+  scan_pub_.publish(scan([](double a) { return wallAt(1.0, a); }, "frame_nobody_publishes"));
+  auto broken = scan([](double a) { return wallAt(1.0, a); });
+  broken.intensities.assign(7, 1.0f);
+  scan_pub_.publish(broken);
+  // The unknown frame is given up after ~transform_timeout (0.5 s), not left waiting in the tf
+  // filter until newer scans push it out.
+  ASSERT_TRUE(waitFor([&] {
+    return diagnostic("skipped_unknown_frame") >= unknown_before + 1 &&
+           diagnostic("skipped_length_mismatch") >= mismatch_before + 1 && diagnostic("waiting_for_tf") == 0;
+  }, 20.0)) << "unknown_frame " << diagnostic("skipped_unknown_frame") << " (before " << unknown_before
+            << "), length_mismatch " << diagnostic("skipped_length_mismatch") << ", waiting " << diagnostic("waiting_for_tf");
+  EXPECT_GE(diagnostic("scans_received"), diagnostic("scans_inserted") + diagnostic("scans_skipped"));
+  EXPECT_GT(diagnostic("voxels"), 0.0);
+}
+
+TEST_F(MapperNodeTest, TimeJumpingBackIsDetectedAndMappingContinues) {
+  scan_pub_.publish(scan([](double a) { return wallAt(2.0, a); }));
+  ros::WallDuration(0.2).sleep();
+  auto restarted = scan([](double a) { return wallAt(2.0, a); });
+  restarted.header.stamp -= ros::Duration(30.0);  // as if the bag started over
+  scan_pub_.publish(restarted);
+  ros::WallDuration(0.2).sleep();
+  for (int k = 0; k < 5; ++k) {
+    auto later = scan([](double a) { return wallAt(4.0, a); });
+    later.header.stamp = restarted.header.stamp + ros::Duration(0.1 * (k + 1));
+    scan_pub_.publish(later);
+    ros::WallDuration(0.05).sleep();
+  }
+  ASSERT_TRUE(waitFor([this] { return diagnostic("time_jumps_back") >= 1; }, 20.0)) << "jump not reported";
+  ASSERT_TRUE(waitFor([this] { return cellAt(4.11, 0.0) > 50; }, 20.0)) << "mapping stopped after the jump";
 }
 
 }  // namespace

@@ -55,6 +55,8 @@ class SliceGrid {
   const SliceOptions& options() const { return options_; }
   // Number of cells that are not unknown.
   std::size_t knownCells() const;
+  // Bytes of the grid, including the unknown margin it keeps to grow into.
+  std::size_t memoryBytes() const { return data_.capacity() * sizeof(std::int8_t) + sizeof(*this); }
 
  private:
   void ensureCovers(std::uint16_t kx0, std::uint16_t ky0, std::uint16_t kx1, std::uint16_t ky1);

@@ -132,17 +132,18 @@ void ScanInserter::prepareWindow(const octomap::OcTreeKey& lo, const octomap::Oc
   if (window_.size() < cells) window_.assign(cells, -1);
 }
 
-bool ScanInserter::inWindow(const octomap::OcTreeKey& key) const {
+// Per visited voxel: forced inline, a call each costs more than the work (measured with callgrind).
+__attribute__((always_inline)) inline bool ScanInserter::inWindow(const octomap::OcTreeKey& key) const {
   return window_nx_ > 0 && key[0] >= window_lo_[0] && key[1] >= window_lo_[1] && key[2] >= window_lo_[2] &&
          key[0] - window_lo_[0] < window_nx_ && key[1] - window_lo_[1] < window_ny_ && key[2] - window_lo_[2] < window_nz_;
 }
 
-std::size_t ScanInserter::windowIndex(const octomap::OcTreeKey& key) const {
+__attribute__((always_inline)) inline std::size_t ScanInserter::windowIndex(const octomap::OcTreeKey& key) const {
   return (std::size_t(key[2] - window_lo_[2]) * window_ny_ + (key[1] - window_lo_[1])) * window_nx_ +
          (key[0] - window_lo_[0]);
 }
 
-void ScanInserter::accumulate(const octomap::OcTreeKey& key, float value) {
+__attribute__((always_inline)) inline void ScanInserter::accumulate(const octomap::OcTreeKey& key, float value) {
   std::int32_t* slot_ref = nullptr;
   if (inWindow(key)) {
     slot_ref = &window_[windowIndex(key)];

@@ -48,6 +48,7 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   metadata_pub_ = nh_.advertise<nav_msgs::MapMetaData>("map_metadata", 1, true);
   markers_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("occupied_cells", 1, true);
   optimized_pub_ = pnh_.advertise<nav_msgs::OccupancyGrid>("optimized_map", 1, true);
+  diagnostics_pub_ = nh_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 5);
   ros::NodeHandle services(pnh_);
   services.setCallbackQueue(&service_queue_);
   save_srv_ = services.advertiseService("save_map", &MapperNode::onSaveMap, this);
@@ -58,11 +59,20 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
 
   const uint32_t queue = static_cast<uint32_t>(std::max(1, options_.scan_queue_size));
   scan_sub_.subscribe(nh_, "scan", queue);
+  // Registered before the filter connects, so a scan is recorded before the filter can answer.
+  scan_sub_.registerCallback(boost::function<void(const sensor_msgs::LaserScan::ConstPtr&)>(
+      [this](const sensor_msgs::LaserScan::ConstPtr& msg) {
+        waiting_scans_.arrived(msg, ros::WallTime::now());
+        std::lock_guard<std::mutex> lock(mutex_);
+        counters_.scans_received++;
+      }));
+  // No tolerance: a scan is handled as soon as its transform exists (a tolerance would hold every
+  // scan back until tf runs that far ahead of it).
   scan_filter_ = std::make_unique<tf2_ros::MessageFilter<sensor_msgs::LaserScan>>(scan_sub_, tf_buffer_,
                                                                                  options_.frame_id, queue, nh_);
-  scan_filter_->setTolerance(ros::Duration(options_.transform_tolerance));
+  expire_timer_ = nh_.createWallTimer(ros::WallDuration(0.05), &MapperNode::expireWaitingScans, this);
   scan_filter_->registerCallback(boost::bind(&MapperNode::onScan, this, boost::placeholders::_1));
-  scan_filter_->registerFailureCallback(boost::bind(&MapperNode::onTransformFailure<sensor_msgs::LaserScan>, this, boost::placeholders::_1, boost::placeholders::_2));
+  scan_filter_->registerFailureCallback(boost::bind(&MapperNode::onScanTransformFailure, this, boost::placeholders::_1, boost::placeholders::_2));
 
   cloud_sub_.subscribe(nh_, "cloud_in", 5);
   cloud_filter_ = std::make_unique<tf2_ros::MessageFilter<sensor_msgs::PointCloud2>>(cloud_sub_, tf_buffer_,
@@ -71,6 +81,7 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   cloud_filter_->registerFailureCallback(boost::bind(&MapperNode::onTransformFailure<sensor_msgs::PointCloud2>, this, boost::placeholders::_1, boost::placeholders::_2));
 
   publish_timer_ = nh_.createTimer(ros::Duration(1.0 / std::max(0.1, options_.publish_rate)), &MapperNode::publish, this);
+  diagnostics_timer_ = nh_.createTimer(ros::Duration(1.0), &MapperNode::publishDiagnostics, this);
   ROS_INFO("mapping in frame '%s' at %.3f m, slice z [%.2f, %.2f] m", options_.frame_id.c_str(),
            mapper_.options().resolution, mapper_.options().slice.min_z, mapper_.options().slice.max_z);
 }
@@ -78,9 +89,30 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
 void MapperNode::skip(const std::string& reason, const std::string& message) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    skipped_scans_[reason]++;
+    counters_.skipped[reason]++;
   }
   ROS_WARN_THROTTLE(5.0, "skipping scan (%s): %s", reason.c_str(), message.c_str());
+}
+
+void MapperNode::expireWaitingScans(const ros::WallTimerEvent&) {
+  const auto expired = waiting_scans_.expire(ros::WallTime::now(), ros::WallDuration(options_.transform_timeout));
+  for (const sensor_msgs::LaserScan::ConstPtr& msg : expired) {
+    const std::string& frame = msg->header.frame_id;
+    std::string why;
+    if (!tf_buffer_._frameExists(frame)) {
+      skip("unknown_frame", "frame '" + frame + "' is not in tf (waited " + std::to_string(options_.transform_timeout) + " s)");
+    } else if (!tf_buffer_.canTransform(options_.frame_id, frame, msg->header.stamp, &why)) {
+      skip("transform_timeout", "no transform " + options_.frame_id + " <- '" + frame + "' within " +
+                                    std::to_string(options_.transform_timeout) + " s: " + why);
+    } else {
+      skip("transform_timeout", "transform " + options_.frame_id + " <- '" + frame + "' came too late");
+    }
+  }
+}
+
+void MapperNode::onScanTransformFailure(const sensor_msgs::LaserScan::ConstPtr& msg,
+                                        tf2_ros::FilterFailureReason reason) {
+  if (waiting_scans_.resolved(msg)) onTransformFailure(msg, reason);  // else counted when it timed out
 }
 
 template <typename M>
@@ -102,9 +134,32 @@ bool MapperNode::sensorPose(const std_msgs::Header& header, Eigen::Isometry3d* p
   }
 }
 
+void MapperNode::checkTimeJump(const ros::Time& stamp) {
+  constexpr double kTolerance = 1.0;  // s: scans from several sources may interleave a little
+  bool jumped = false;
+  double seconds = 0.0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!last_scan_stamp_.isZero() && stamp + ros::Duration(kTolerance) < last_scan_stamp_) {
+      jumped = true;
+      seconds = (last_scan_stamp_ - stamp).toSec();
+      counters_.time_jumps_back++;
+    }
+    last_scan_stamp_ = stamp;
+  }
+  // tf2_ros's TransformListener clears its buffer when it sees /clock jump back; the scan already
+  // passed the tf filter with a fresh transform, so the map stays consistent.
+  if (jumped) {
+    ROS_WARN("time jumped back by %.3f s (bag restarted with --loop, or /clock reset): tf buffer cleared by the "
+             "listener, mapping continues", seconds);
+  }
+}
+
 void MapperNode::onScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
+  if (!waiting_scans_.resolved(msg)) return;  // timed out and counted already
   Eigen::Isometry3d pose;
   if (!sensorPose(msg->header, &pose)) return;
+  checkTimeJump(msg->header.stamp);
   Scan scan;
   const ScanRejection rejection = toCoreScan(*msg, pose, &scan);
   if (rejection.rejected()) {
@@ -153,6 +208,8 @@ void MapperNode::onCloud(const sensor_msgs::PointCloud2::ConstPtr& msg) {
 void MapperNode::afterInsert(const InsertResult& result, double seconds) {
   std::lock_guard<std::mutex> lock(mutex_);
   insert_seconds_ += seconds;
+  counters_.scans_inserted++;
+  counters_.last_insert_ms = 1000.0 * seconds;
   if (result.voxels_updated > 0) map_changed_ = true;
 }
 
@@ -172,6 +229,20 @@ void MapperNode::publish(const ros::TimerEvent&) {
   map_pub_.publish(grid);
   metadata_pub_.publish(grid.info);
   if (!markers.markers.empty()) markers_pub_.publish(markers);
+}
+
+void MapperNode::publishDiagnostics(const ros::TimerEvent&) {
+  diagnostic_msgs::DiagnosticArray array;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    counters_.voxels = mapper_.tree().getNumLeafNodes();
+    counters_.known_cells = mapper_.slice().knownCells();
+    counters_.kept_scans = mapper_.scanStore().scans().size();
+    counters_.waiting_for_tf = waiting_scans_.waiting();  // this timer runs on the same queue as the scans
+    array = toDiagnostics(counters_, skipped_at_last_report_, ros::this_node::getName(), ros::Time::now());
+    skipped_at_last_report_ = counters_.skippedTotal();
+  }
+  diagnostics_pub_.publish(array);
 }
 
 bool MapperNode::onSaveMap(SaveMap::Request& req, SaveMap::Response& res) {
@@ -264,10 +335,9 @@ std::string MapperNode::summary() const {
   std::lock_guard<std::mutex> lock(mutex_);
   const MapperStats& s = mapper_.stats();
   std::ostringstream out;
-  std::uint64_t skipped = 0;
-  for (const auto& kv : skipped_scans_) skipped += kv.second;
-  out << "scans_inserted=" << s.scans_inserted << " scans_skipped=" << skipped + s.scans_rejected;
-  for (const auto& kv : skipped_scans_) out << " skipped_" << kv.first << '=' << kv.second;
+  out << "scans_inserted=" << s.scans_inserted << " scans_skipped=" << counters_.skippedTotal()
+      << " time_jumps_back=" << counters_.time_jumps_back;
+  for (const auto& kv : counters_.skipped) out << " skipped_" << kv.first << '=' << kv.second;
   out << " readings: " << s.readings.summary() << " voxels=" << mapper_.tree().getNumLeafNodes()
       << " known_cells=" << mapper_.slice().knownCells() << " insert_ms_per_scan="
       << (s.scans_inserted ? 1000.0 * insert_seconds_ / s.scans_inserted : 0.0)

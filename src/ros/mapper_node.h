@@ -23,7 +23,9 @@
 #include "octo_slice_mapper/Optimize.h"
 #include "octo_slice_mapper/SaveMap.h"
 #include "octo_slice_mapper/mapper.h"
+#include "ros/diagnostics.h"
 #include "ros/node_parameters.h"
+#include "ros/pending_messages.h"
 
 namespace octo_slice_mapper {
 namespace ros_adapter {
@@ -38,12 +40,17 @@ class MapperNode {
  private:
   void onScan(const sensor_msgs::LaserScan::ConstPtr& msg);
   void onCloud(const sensor_msgs::PointCloud2::ConstPtr& msg);
+  void onScanTransformFailure(const sensor_msgs::LaserScan::ConstPtr& msg, tf2_ros::FilterFailureReason reason);
   template <typename M>
   void onTransformFailure(const boost::shared_ptr<const M>& msg, tf2_ros::FilterFailureReason reason);
   bool sensorPose(const std_msgs::Header& header, Eigen::Isometry3d* pose);
   void skip(const std::string& reason, const std::string& message);
   void afterInsert(const InsertResult& result, double seconds);
   void publish(const ros::TimerEvent&);
+  void publishDiagnostics(const ros::TimerEvent&);
+  void expireWaitingScans(const ros::WallTimerEvent&);
+  // A scan stamped well before the last one: a bag restarted (--loop) or /clock reset.
+  void checkTimeJump(const ros::Time& stamp);
   bool onSaveMap(SaveMap::Request& req, SaveMap::Response& res);
   bool onReset(std_srvs::Empty::Request&, std_srvs::Empty::Response&);
   bool onOptimize(Optimize::Request& req, Optimize::Response& res);
@@ -63,15 +70,19 @@ class MapperNode {
   message_filters::Subscriber<sensor_msgs::PointCloud2> cloud_sub_;
   std::unique_ptr<tf2_ros::MessageFilter<sensor_msgs::PointCloud2>> cloud_filter_;
 
-  ros::Publisher map_pub_, metadata_pub_, markers_pub_, optimized_pub_;
+  ros::Publisher map_pub_, metadata_pub_, markers_pub_, optimized_pub_, diagnostics_pub_;
   ros::CallbackQueue service_queue_;
   std::unique_ptr<ros::AsyncSpinner> service_spinner_;
   std::mutex service_mutex_;  // one save / optimize / reset at a time
   ros::ServiceServer save_srv_, reset_srv_, optimize_srv_;
-  ros::Timer publish_timer_;
+  ros::Timer publish_timer_, diagnostics_timer_;
+  ros::WallTimer expire_timer_;
+  PendingMessages<sensor_msgs::LaserScan> waiting_scans_;
 
   bool map_changed_ = true;
-  std::map<std::string, std::uint64_t> skipped_scans_;  // whole scans dropped, per reason
+  NodeCounters counters_;  // guarded by mutex_; map sizes filled in when reported
+  std::uint64_t skipped_at_last_report_ = 0;
+  ros::Time last_scan_stamp_;
   double insert_seconds_ = 0.0;
   ros::WallTime started_;
 };

@@ -47,7 +47,7 @@ NodeOptions readNodeOptions(const ros::NodeHandle& pnh) {
   pnh.param("frame_id", o.frame_id, o.frame_id);
   pnh.param("publish_rate", o.publish_rate, o.publish_rate);
   pnh.param("publish_markers", o.publish_markers, o.publish_markers);
-  pnh.param("transform_tolerance", o.transform_tolerance, o.transform_tolerance);
+  pnh.param("transform_timeout", o.transform_timeout, o.transform_timeout);
   pnh.param("scan_queue_size", o.scan_queue_size, o.scan_queue_size);
   pnh.param("map_file", o.map_file, o.map_file);
   pnh.param("save_on_shutdown", o.save_on_shutdown, o.save_on_shutdown);

@@ -14,7 +14,7 @@ struct NodeOptions {
   std::string frame_id = "odom";     // fixed frame the map is built in (the odometry is the pose oracle)
   double publish_rate = 2.0;         // Hz, map / markers publishing when something changed
   bool publish_markers = true;       // ~occupied_cells
-  double transform_tolerance = 0.1;  // s, how long a scan may wait for its transform
+  double transform_timeout = 0.5;    // s (wall), how long a scan may wait for its transform
   int scan_queue_size = 50;          // scans held while waiting for tf
   std::string map_file;              // .bt/.ot to resume from
   std::string save_on_shutdown;      // prefix written when the node stops ("" = don't)

@@ -8,6 +8,7 @@
 #include <ros/package.h>
 #include <sys/resource.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -136,6 +137,17 @@ std::string jsonErrors(const osm::RangePredictionError& e) {
   return j.str();
 }
 
+// Bytes per observed 2D cell (a known slice cell) of the octree and of the slice grid.
+std::string jsonMemory(const osm::Mapper& mapper) {
+  const double cells = std::max<std::size_t>(1, mapper.slice().knownCells());
+  const std::size_t octree = mapper.tree().memoryUsage();
+  const std::size_t slice = mapper.slice().memoryBytes();
+  std::ostringstream j;
+  j << "{\"octree_bytes\": " << octree << ", \"slice_bytes\": " << slice << ", \"octree_bytes_per_cell\": "
+    << octree / cells << ", \"slice_bytes_per_cell\": " << slice / cells << "}";
+  return j.str();
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -243,6 +255,7 @@ int main(int argc, char** argv) {
   json << "}, \"bad_lines\": " << bad_lines << ", \"log_error\": " << jsonString(end_error)
        << ", \"resolution\": " << mapper->options().resolution << ", \"voxels\": " << mapper->tree().getNumLeafNodes()
        << ", \"known_cells\": " << mapper->slice().knownCells()
+       << ", \"memory\": " << jsonMemory(*mapper)
        << ", \"insert_ms_per_scan\": " << 1000.0 * insert_seconds / stats.scans_inserted
        << ", \"scan_store_mb\": " << mapper->scanStore().memoryBytes() / 1e6;
   if (args.optimize) {

@@ -1,0 +1,214 @@
+// bench_insertion_methods: ms per scan of four ways to put the same 2D lidar scans into a map, in
+// one process, on the shared CARMEN datasets (issue 4):
+//   (a) octomap_server's method: free / occupied KeySets from computeRayKeys, then updateNode
+//       with hit 0.7 / miss 0.4 per key;
+//   (b) OcTree::insertPointCloud;
+//   (c) a dense 2D float log-odds grid with Bresenham rays, the speed of light for this job;
+//   (d) this project's insertion with its full inverse sensor model into the octree (ScanInserter),
+//       and (d+) the node's Mapper, which also keeps the 2D slice and the scans for the global pass.
+// All get the same returns (readings below the range limit); (d) also clears along no-returns,
+// which (a)-(c) are not given. Each repetition maps all scans into a fresh map with each method in
+// turn; medians over repetitions.
+//
+//   bench_insertion_methods [--data DIR] [--repeats N] [--resolution M]... [--only intel|fr079]
+#include <octomap/OcTree.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "octo_slice_mapper/carmen_log.h"
+#include "octo_slice_mapper/mapper.h"
+
+namespace osm = octo_slice_mapper;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0.0 : v[v.size() / 2];
+}
+
+// A scan's returns as world points, for (a) - (c).
+struct PointScan {
+  octomap::point3d origin;
+  octomap::Pointcloud points;
+};
+
+std::vector<PointScan> returnsOf(const std::vector<osm::Scan>& scans) {
+  std::vector<PointScan> out;
+  for (const osm::Scan& s : scans) {
+    PointScan p;
+    const Eigen::Vector3d o = s.sensor_pose.translation();
+    p.origin = octomap::point3d(o.x(), o.y(), o.z());
+    for (std::size_t i = 0; i < s.ranges.size(); ++i) {
+      if (osm::classifyReading(s.ranges[i], s.range_min, s.range_max, {}) != osm::ReadingKind::kHit) continue;
+      const double a = s.beamAngle(i);
+      const Eigen::Vector3d w = s.sensor_pose * Eigen::Vector3d(s.ranges[i] * std::cos(a), s.ranges[i] * std::sin(a), 0.0);
+      p.points.push_back(w.x(), w.y(), w.z());
+    }
+    out.push_back(std::move(p));
+  }
+  return out;
+}
+
+// (a) as octomap_server's insertScan does it (without its ground filter).
+void insertLikeOctomapServer(octomap::OcTree* tree, const PointScan& scan) {
+  octomap::KeySet free_cells, occupied_cells;
+  octomap::KeyRay ray;
+  for (const octomap::point3d& p : scan.points) {
+    if (tree->computeRayKeys(scan.origin, p, ray)) free_cells.insert(ray.begin(), ray.end());
+    octomap::OcTreeKey key;
+    if (tree->coordToKeyChecked(p, key)) occupied_cells.insert(key);
+  }
+  for (const octomap::OcTreeKey& k : free_cells) {
+    if (!occupied_cells.count(k)) tree->updateNode(k, false);
+  }
+  for (const octomap::OcTreeKey& k : occupied_cells) tree->updateNode(k, true);
+}
+
+// (c) A flat grid over the data's extent: log-odds floats, Bresenham, the same hit/miss and clamping.
+class FlatGrid {
+ public:
+  FlatGrid(double min_x, double min_y, double max_x, double max_y, double resolution)
+      : res_(resolution), x0_(min_x), y0_(min_y),
+        w_(static_cast<int>(std::ceil((max_x - min_x) / resolution)) + 1),
+        h_(static_cast<int>(std::ceil((max_y - min_y) / resolution)) + 1),
+        cells_(std::size_t(w_) * h_, 0.0f) {}
+
+  void insert(const PointScan& scan) {
+    const int ox = cellX(scan.origin.x()), oy = cellY(scan.origin.y());
+    for (const octomap::point3d& p : scan.points) {
+      const int ex = cellX(p.x()), ey = cellY(p.y());
+      // Bresenham from the origin cell to the end cell; the end cell gets the hit.
+      int x = ox, y = oy;
+      const int dx = std::abs(ex - ox), dy = -std::abs(ey - oy), sx = ox < ex ? 1 : -1, sy = oy < ey ? 1 : -1;
+      int err = dx + dy;
+      while (x != ex || y != ey) {
+        update(x, y, kMiss);
+        const int e2 = 2 * err;
+        if (e2 >= dy) err += dy, x += sx;
+        if (e2 <= dx) err += dx, y += sy;
+      }
+      update(ex, ey, kHit);
+    }
+  }
+
+ private:
+  static constexpr float kHit = 0.8473f, kMiss = -0.4055f, kMin = -2.0f, kMax = 3.5f;
+  int cellX(double x) const { return std::clamp(static_cast<int>((x - x0_) / res_), 0, w_ - 1); }
+  int cellY(double y) const { return std::clamp(static_cast<int>((y - y0_) / res_), 0, h_ - 1); }
+  void update(int x, int y, float l) {
+    float& c = cells_[std::size_t(y) * w_ + x];
+    c = std::min(kMax, std::max(kMin, c + l));
+  }
+  double res_, x0_, y0_;
+  int w_, h_;
+  std::vector<float> cells_;
+};
+
+double msPerScan(std::size_t scans, const std::function<void()>& run) {
+  const auto t0 = Clock::now();
+  run();
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count() / scans;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const char* env = std::getenv("OSM_DATA_DIR");
+  std::string data = env && *env ? env : "../shared/data", only;
+  int repeats = 3;
+  std::vector<double> resolutions;
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "--data" && i + 1 < argc) data = argv[++i];
+    else if (arg == "--repeats" && i + 1 < argc) repeats = std::max(1, std::atoi(argv[++i]));
+    else if (arg == "--resolution" && i + 1 < argc) resolutions.push_back(std::atof(argv[++i]));
+    else if (arg == "--only" && i + 1 < argc) only = argv[++i];
+    else {
+      std::fprintf(stderr, "usage: bench_insertion_methods [--data DIR] [--repeats N] [--resolution M]... [--only NAME]\n");
+      return 2;
+    }
+  }
+  if (resolutions.empty()) resolutions = {0.05, 0.02};
+  const std::vector<std::pair<std::string, std::string>> datasets = {
+      {"intel", data + "/intel_corrected/intel-corrected.log.gz"},
+      {"fr079", data + "/fr079_corrected/freiburg-079-corrected.log.gz"}};
+  std::printf("%-6s %5s | %9s %9s %9s %9s %9s | %7s %7s %7s\n", "data", "res", "(a) srv", "(b) cloud", "(c) flat",
+              "(d) ours", "(d+) node", "a/d", "d/c", "b/d");
+  for (const auto& [name, path] : datasets) {
+    if (!only.empty() && only != name) continue;
+    std::string error;
+    std::vector<osm::Scan> scans;
+    for (osm::LogScan& s : osm::readCarmenLog(path, {}, &error)) scans.push_back(std::move(s.scan));
+    if (scans.empty()) {
+      std::fprintf(stderr, "bench_insertion_methods: %s: %s\n", path.c_str(), error.c_str());
+      return 1;
+    }
+    const std::vector<PointScan> points = returnsOf(scans);
+    double min_x = 1e9, min_y = 1e9, max_x = -1e9, max_y = -1e9;
+    for (const PointScan& p : points) {
+      for (const octomap::point3d& q : p.points) {
+        min_x = std::min<double>(min_x, q.x()), max_x = std::max<double>(max_x, q.x());
+        min_y = std::min<double>(min_y, q.y()), max_y = std::max<double>(max_y, q.y());
+      }
+    }
+    for (double res : resolutions) {
+      std::vector<double> a, b, c, d, dplus;
+      for (int r = 0; r < repeats; ++r) {
+        {
+          octomap::OcTree tree(res);
+          tree.setProbHit(0.7);
+          tree.setProbMiss(0.4);
+          a.push_back(msPerScan(scans.size(), [&] {
+            for (const PointScan& p : points) insertLikeOctomapServer(&tree, p);
+          }));
+        }
+        {
+          octomap::OcTree tree(res);
+          b.push_back(msPerScan(scans.size(), [&] {
+            for (const PointScan& p : points) tree.insertPointCloud(p.points, p.origin);
+          }));
+        }
+        {
+          FlatGrid grid(min_x - 1, min_y - 1, max_x + 1, max_y + 1, res);
+          c.push_back(msPerScan(scans.size(), [&] {
+            for (const PointScan& p : points) grid.insert(p);
+          }));
+        }
+        {
+          octomap::OcTree tree(res);
+          tree.setClampingThresMin(0.12);
+          tree.setClampingThresMax(0.97);
+          osm::ScanInserter inserter(&tree, osm::InsertOptions{});
+          d.push_back(msPerScan(scans.size(), [&] {
+            for (const osm::Scan& s : scans) inserter.insert(s);
+          }));
+        }
+        {
+          osm::MapperOptions options;
+          options.resolution = res;
+          osm::Mapper mapper(options);
+          dplus.push_back(msPerScan(scans.size(), [&] {
+            for (const osm::Scan& s : scans) mapper.insert(s);
+          }));
+        }
+        std::fprintf(stderr, "  %s %.2f repeat %d/%d: a %.3f b %.3f c %.3f d %.3f d+ %.3f ms\n", name.c_str(), res,
+                     r + 1, repeats, a.back(), b.back(), c.back(), d.back(), dplus.back());
+      }
+      const double ma = median(a), mb = median(b), mc = median(c), md = median(d), mdp = median(dplus);
+      std::printf("%-6s %5.2f | %9.3f %9.3f %9.3f %9.3f %9.3f | %6.1fx %6.2fx %6.1fx\n", name.c_str(), res, ma, mb,
+                  mc, md, mdp, ma / md, md / mc, mb / md);
+    }
+  }
+  std::printf("ms per scan, medians of %d; a/d: ours vs octomap_server (target >= 20x at 0.05 m); d/c: ours vs a "
+              "flat grid (target <= 2x)\n", repeats);
+  return 0;
+}

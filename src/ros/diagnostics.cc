@@ -1,0 +1,54 @@
+#include "ros/diagnostics.h"
+
+#include <diagnostic_msgs/DiagnosticStatus.h>
+
+#include <cstdio>
+
+namespace octo_slice_mapper {
+namespace ros_adapter {
+
+std::uint64_t NodeCounters::skippedTotal() const {
+  std::uint64_t total = 0;
+  for (const auto& kv : skipped) total += kv.second;
+  return total;
+}
+
+diagnostic_msgs::DiagnosticArray toDiagnostics(const NodeCounters& c, std::uint64_t skipped_before,
+                                               const std::string& node_name, const ros::Time& stamp) {
+  diagnostic_msgs::DiagnosticStatus status;
+  status.name = node_name + ": mapping";
+  status.hardware_id = "octo_slice_mapper";
+  auto add = [&status](const std::string& key, const std::string& value) {
+    diagnostic_msgs::KeyValue kv;
+    kv.key = key;
+    kv.value = value;
+    status.values.push_back(kv);
+  };
+  char ms[32];
+  std::snprintf(ms, sizeof(ms), "%.3f", c.last_insert_ms);
+  add("scans_received", std::to_string(c.scans_received));
+  add("scans_inserted", std::to_string(c.scans_inserted));
+  add("scans_skipped", std::to_string(c.skippedTotal()));
+  for (const auto& kv : c.skipped) add("skipped_" + kv.first, std::to_string(kv.second));
+  add("waiting_for_tf", std::to_string(c.waiting_for_tf));
+  add("time_jumps_back", std::to_string(c.time_jumps_back));
+  add("last_insert_ms", ms);
+  add("voxels", std::to_string(c.voxels));
+  add("known_cells", std::to_string(c.known_cells));
+  add("kept_scans", std::to_string(c.kept_scans));
+  const std::uint64_t new_skips = c.skippedTotal() - std::min(skipped_before, c.skippedTotal());
+  if (new_skips == 0) {
+    status.level = diagnostic_msgs::DiagnosticStatus::OK;
+    status.message = "mapping";
+  } else {
+    status.level = diagnostic_msgs::DiagnosticStatus::WARN;
+    status.message = std::to_string(new_skips) + " scans skipped since the last report (see skipped_*)";
+  }
+  diagnostic_msgs::DiagnosticArray array;
+  array.header.stamp = stamp;
+  array.status.push_back(status);
+  return array;
+}
+
+}  // namespace ros_adapter
+}  // namespace octo_slice_mapper

@@ -1,0 +1,32 @@
+// The node's counters on /diagnostics, so a user sees in rqt_runtime_monitor or
+// `rostopic echo /diagnostics` what the mapper does and why scans are dropped.
+#pragma once
+
+#include <diagnostic_msgs/DiagnosticArray.h>
+#include <ros/time.h>
+
+#include <cstdint>
+#include <map>
+#include <string>
+
+namespace octo_slice_mapper {
+namespace ros_adapter {
+
+struct NodeCounters {
+  std::uint64_t scans_received = 0;  // by the subscriber, before waiting for tf
+  std::uint64_t scans_inserted = 0;
+  std::map<std::string, std::uint64_t> skipped;  // whole scans dropped, per reason
+  std::uint64_t time_jumps_back = 0;
+  double last_insert_ms = 0.0;
+  std::size_t voxels = 0, known_cells = 0, kept_scans = 0;
+  std::size_t waiting_for_tf = 0;  // in the tf filter's queue, within their timeout
+  std::uint64_t skippedTotal() const;
+};
+
+// One status: OK, or WARN when scans were skipped since `skipped_before` (the total at the last
+// report), naming the reasons.
+diagnostic_msgs::DiagnosticArray toDiagnostics(const NodeCounters& counters, std::uint64_t skipped_before,
+                                               const std::string& node_name, const ros::Time& stamp);
+
+}  // namespace ros_adapter
+}  // namespace octo_slice_mapper

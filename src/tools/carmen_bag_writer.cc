@@ -1,0 +1,109 @@
+#include "carmen_bag_writer.h"
+
+#include <geometry_msgs/TransformStamped.h>
+#include <nav_msgs/Odometry.h>
+#include <rosbag/bag.h>
+#include <sensor_msgs/LaserScan.h>
+#include <tf2_msgs/TFMessage.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+
+namespace octo_slice_mapper {
+namespace tools {
+namespace {
+
+geometry_msgs::TransformStamped planar(const std::string& parent, const std::string& child, const ros::Time& stamp,
+                                       double x, double y, double z, double yaw) {
+  geometry_msgs::TransformStamped t;
+  t.header.frame_id = parent;
+  t.header.stamp = stamp;
+  t.child_frame_id = child;
+  t.transform.translation.x = x;
+  t.transform.translation.y = y;
+  t.transform.translation.z = z;
+  t.transform.rotation.z = std::sin(0.5 * yaw);
+  t.transform.rotation.w = std::cos(0.5 * yaw);
+  return t;
+}
+
+}  // namespace
+
+bool writeCarmenBag(CarmenLogReader* reader, const std::string& bag_path, const CarmenBagOptions& options,
+                    CarmenBagReport* report, std::string* error, const std::function<void(double)>& progress) {
+  const std::string partial = bag_path + ".partial";
+  try {
+    rosbag::Bag bag(partial, rosbag::bagmode::Write);
+    LogScan record;
+    double last_stamp = -1.0;
+    bool wrote_static = false;
+    while (reader->next(&record)) {
+      const Scan& scan = record.scan;
+      // Keep time strictly increasing even where the log repeats or lacks stamps.
+      double t = scan.stamp > 0.0 ? scan.stamp + options.time_offset : last_stamp + 0.1;
+      if (last_stamp >= 0.0 && t <= last_stamp) t = last_stamp + 1e-3;
+      if (last_stamp < 0.0 && t <= 0.0) t = options.time_offset;
+      last_stamp = t;
+      const ros::Time stamp(t);
+      const Eigen::Vector3d p = scan.sensor_pose.translation();
+      const Eigen::Vector3d x_axis = scan.sensor_pose.linear() * Eigen::Vector3d::UnitX();
+      const double yaw = std::atan2(x_axis.y(), x_axis.x());
+      if (!wrote_static) {
+        tf2_msgs::TFMessage statics;
+        statics.transforms.push_back(planar(options.base_frame, options.laser_frame, stamp, 0.0, 0.0, p.z(), 0.0));
+        bag.write("/tf_static", stamp, statics);
+        wrote_static = true;
+      }
+      tf2_msgs::TFMessage tf;
+      tf.transforms.push_back(planar(options.fixed_frame, options.base_frame, stamp, p.x(), p.y(), 0.0, yaw));
+      bag.write("/tf", stamp, tf);
+      nav_msgs::Odometry odom;
+      odom.header.stamp = stamp;
+      odom.header.frame_id = options.fixed_frame;
+      odom.child_frame_id = options.base_frame;
+      odom.pose.pose.position.x = p.x();
+      odom.pose.pose.position.y = p.y();
+      odom.pose.pose.orientation.z = std::sin(0.5 * yaw);
+      odom.pose.pose.orientation.w = std::cos(0.5 * yaw);
+      bag.write("/odom", stamp, odom);
+      sensor_msgs::LaserScan msg;
+      msg.header.stamp = stamp;
+      msg.header.frame_id = options.laser_frame;
+      msg.header.seq = static_cast<std::uint32_t>(report->scans);
+      msg.angle_min = scan.angle_min;
+      msg.angle_increment = scan.angle_increment;
+      msg.angle_max = scan.angle_min + scan.angle_increment * static_cast<float>(scan.ranges.size() - 1);
+      msg.range_min = scan.range_min;
+      msg.range_max = scan.range_max;
+      msg.ranges = scan.ranges;
+      bag.write(options.scan_topic, stamp, msg);
+      ++report->scans;
+      if (progress && report->scans % 50 == 0 && reader->fileSize()) {
+        progress(double(reader->bytesRead()) / reader->fileSize());
+      }
+    }
+    bag.close();
+  } catch (const std::exception& e) {
+    std::remove(partial.c_str());
+    *error = bag_path + ": " + e.what();
+    return false;
+  }
+  report->bad_lines = reader->problemCount();
+  report->log_error = reader->endError();
+  if (report->scans == 0) {
+    std::remove(partial.c_str());
+    *error = "no laser scans in the log";
+    return false;
+  }
+  if (std::rename(partial.c_str(), bag_path.c_str()) != 0) {
+    *error = "cannot rename " + partial + ": " + std::strerror(errno);
+    std::remove(partial.c_str());
+    return false;
+  }
+  return true;
+}
+
+}  // namespace tools
+}  // namespace octo_slice_mapper
