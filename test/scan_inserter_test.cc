@@ -171,3 +171,25 @@ TEST(ScanInserter, PointCloudUsesTheSameModel) {
   EXPECT_GT(nodeAt(tree, 2.0, 0.0, 0.5)->getLogOdds(), 0.0f);
   EXPECT_NEAR(nodeAt(tree, 1.0, 0.0, 0.5)->getLogOdds(), inserter.model().logOddsFree(), 1e-4);
 }
+
+// Regression (found by fuzz_laser_scan): coordinates far outside the octree reached OctoMap's
+// coordToKeyChecked, whose int cast is undefined there (caught by scripts/test-sanitizers).
+TEST(ScanInserter, CoordinatesOutsideTheTreeAreDroppedSafely) {
+  octomap::OcTree tree(0.05);
+  ScanInserter inserter(&tree, InsertOptions{});
+  Eigen::Isometry3d far_away = Eigen::Isometry3d::Identity();
+  far_away.translation() = Eigen::Vector3d(-1e308, 0.0, 0.26);  // finite, so the header check passes
+  EXPECT_TRUE(inserter.insert(makeScan(far_away, -1.0f, 0.01f, std::vector<float>(201, 2.0f))).ok());
+  EXPECT_EQ(tree.size(), 0u) << "a sensor outside the tree adds nothing";
+  // A reading of 3e38 m under range_max = FLT_MAX: that beam leaves the tree and is dropped; its
+  // neighbours still map.
+  std::vector<float> ranges(201, 2.0f);
+  ranges[100] = 3e38f;
+  const InsertResult result =
+      inserter.insert(makeScan(laserPoseOnRobot(0, 0, 0), -1.0f, 0.01f, ranges, 0.02f, std::numeric_limits<float>::max()));
+  ASSERT_TRUE(result.ok());
+  const octomap::OcTreeNode* wall = tree.search(2.10, 0.0, 0.26);
+  ASSERT_NE(wall, nullptr);
+  EXPECT_TRUE(tree.isNodeOccupied(wall));
+  EXPECT_EQ(tree.search(50.0, 0.0, 0.26), nullptr);
+}

@@ -1,11 +1,24 @@
-// Axis-aligned bounding box of octree keys, used to limit work to what a scan touched.
+// Octree keys: a safe coordinate -> key conversion, and a bounding box of keys used to limit work
+// to what a scan touched.
 #pragma once
 
+#include <octomap/OcTree.h>
 #include <octomap/OcTreeKey.h>
 
 #include <algorithm>
+#include <cmath>
 
 namespace octo_slice_mapper {
+
+// OctoMap's coordToKeyChecked casts the scaled coordinate to int before its range check, which is
+// undefined behaviour for a coordinate that is not finite or far outside the tree (found by
+// fuzzing: a finite pose of 1e308 m, or a 3e38 m reading under range_max = FLT_MAX). This checks
+// the range in double first.
+inline bool coordToKeySafe(const octomap::OcTree& tree, double x, double y, double z, octomap::OcTreeKey* key) {
+  const double half_extent = tree.getResolution() * (1 << (tree.getTreeDepth() - 1));
+  if (!(std::abs(x) < half_extent && std::abs(y) < half_extent && std::abs(z) < half_extent)) return false;
+  return tree.coordToKeyChecked(x, y, z, *key);
+}
 
 struct KeyBox {
   octomap::OcTreeKey min{0xFFFF, 0xFFFF, 0xFFFF};

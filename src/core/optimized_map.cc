@@ -2,6 +2,7 @@
 
 #include <chrono>
 
+#include "octo_slice_mapper/key_box.h"
 #include "octo_slice_mapper/map_io.h"
 
 namespace octo_slice_mapper {
@@ -29,8 +30,8 @@ std::vector<octomap::OcTreeKey> writeGridIntoBand(const GridImage& grid, unsigne
       const int v = grid.at(i, j);
       if (v < 0) continue;
       octomap::OcTreeKey key;
-      if (!tree->coordToKeyChecked(grid.origin_x + (i + 0.5) * grid.resolution,
-                                   grid.origin_y + (j + 0.5) * grid.resolution, 0.0, key)) {
+      if (!coordToKeySafe(*tree, grid.origin_x + (i + 0.5) * grid.resolution,
+                          grid.origin_y + (j + 0.5) * grid.resolution, 0.0, &key)) {
         continue;
       }
       for (unsigned kz = band_lo; kz <= band_hi; ++kz) {

@@ -177,7 +177,7 @@ std::vector<KeyUpdate> ScanInserter::computeUpdates(const Eigen::Vector3d& origi
                                                                     double half_angle) {
   std::vector<KeyUpdate> updates;
   octomap::OcTreeKey origin_key;
-  if (!tree_->coordToKeyChecked(origin.x(), origin.y(), origin.z(), origin_key)) return updates;
+  if (!coordToKeySafe(*tree_, origin.x(), origin.y(), origin.z(), &origin_key)) return updates;
   const double tan_half = std::tan(half_angle);
 
   // First pass: the key box of all ray ends (rays are straight, so the box of the origin and the
@@ -193,7 +193,7 @@ std::vector<KeyUpdate> ScanInserter::computeUpdates(const Eigen::Vector3d& origi
     for (const Eigen::Vector3d& dir : fan) {  // the arc of ends bulges past the outer rays' chord
       const Eigen::Vector3d end = origin + dir * traceLength(beams[b]);
       octomap::OcTreeKey key;
-      inside = inside && tree_->coordToKeyChecked(end.x(), end.y(), end.z(), key);
+      inside = inside && coordToKeySafe(*tree_, end.x(), end.y(), end.z(), &key);
       if (inside) beam_box.add(key);
     }
     if (!inside) continue;
@@ -232,7 +232,9 @@ std::vector<KeyUpdate> ScanInserter::computeUpdates(const Eigen::Vector3d& origi
     fanOf(beam, tan_half, &fan);
     for (const Eigen::Vector3d& dir : fan) {
       const Eigen::Vector3d far = origin + dir * traceLength(beam);
-      traverseVoxels(*tree_, origin, far, origin_key, tree_->coordToKey(far.x(), far.y(), far.z()), visit);
+      octomap::OcTreeKey far_key;
+      if (!coordToKeySafe(*tree_, far.x(), far.y(), far.z(), &far_key)) continue;  // checked in the first pass
+      traverseVoxels(*tree_, origin, far, origin_key, far_key, visit);
     }
   }
 

@@ -10,7 +10,7 @@ SliceGrid::SliceGrid(const octomap::OcTree& tree, const SliceOptions& options)
     : tree_(tree), options_(options), resolution_(tree.getResolution()) {
   if (!(options.min_z <= options.max_z)) throw std::invalid_argument("slice: min_z must be <= max_z");
   octomap::OcTreeKey lo, hi;
-  if (!tree.coordToKeyChecked(0, 0, options.min_z, lo) || !tree.coordToKeyChecked(0, 0, options.max_z, hi)) {
+  if (!coordToKeySafe(tree, 0, 0, options.min_z, &lo) || !coordToKeySafe(tree, 0, 0, options.max_z, &hi)) {
     throw std::invalid_argument("slice: z band outside the octree");
   }
   band_lo_ = lo[2];
