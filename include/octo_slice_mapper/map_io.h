@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "octo_slice_mapper/atomic_file.h"
 #include "octo_slice_mapper/slice_grid.h"
 
 namespace octo_slice_mapper {
@@ -46,8 +47,16 @@ bool loadPgmYaml(const std::string& yaml_path, GridImage* grid, std::string* err
 // light blue-grey, north up.
 bool savePng(const GridImage& grid, const std::string& path, std::string* error);
 
-// Writes PREFIX.bt, .ot (from `tree`), .pgm, .yaml and .png (from `slice`); appends the files
-// written. Stops at the first error.
+// The same formats serialised into a FileSet, to be written together with writeFilesAtomically
+// (atomic_file.h): all or none of a set's files replace what was there.
+bool addBinaryTree(const octomap::OcTree& tree, const std::string& path, FileSet* files, std::string* error);
+bool addFullTree(const octomap::OcTree& tree, const std::string& path, FileSet* files, std::string* error);
+bool addPgmYaml(const GridImage& grid, const std::string& prefix, FileSet* files, std::string* error,
+                const PgmOptions& options = {});
+bool addPng(const GridImage& grid, const std::string& path, FileSet* files, std::string* error);
+
+// Writes PREFIX.bt, .ot (from `tree`), .pgm, .yaml and .png (from `slice`) as one set: on any
+// failure none of them replaces the previous file. Appends the files written.
 bool saveMapSet(const octomap::OcTree& tree, const GridImage& slice, const std::string& prefix,
                 std::vector<std::string>* written, std::string* error);
 

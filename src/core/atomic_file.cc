@@ -12,7 +12,10 @@
 
 namespace octo_slice_mapper {
 
-bool writeFileAtomically(const std::string& path, const std::string& bytes, std::string* error) {
+namespace {
+
+// Writes `bytes` to a new temporary file beside `path` and flushes it; its name goes to `temp`.
+bool writeTemporary(const std::string& path, const std::string& bytes, std::string* temp, std::string* error) {
   std::string tmpl = path + ".tmp-XXXXXX";
   std::vector<char> name(tmpl.begin(), tmpl.end());
   name.push_back('\0');
@@ -43,12 +46,35 @@ bool writeFileAtomically(const std::string& path, const std::string& bytes, std:
     ::unlink(name.data());
     return false;
   }
-  if (::rename(name.data(), path.c_str()) != 0) {
-    *error = "cannot rename temporary file onto " + path + ": " + std::strerror(errno);
-    ::unlink(name.data());
-    return false;
+  *temp = name.data();
+  return true;
+}
+
+}  // namespace
+
+bool writeFilesAtomically(const FileSet& files, std::vector<std::string>* written, std::string* error) {
+  std::vector<std::string> temps;
+  for (const auto& file : files) {
+    std::string temp;
+    if (!writeTemporary(file.first, file.second, &temp, error)) {
+      for (const std::string& t : temps) ::unlink(t.c_str());
+      return false;
+    }
+    temps.push_back(temp);
+  }
+  for (std::size_t k = 0; k < files.size(); ++k) {
+    if (::rename(temps[k].c_str(), files[k].first.c_str()) != 0) {
+      *error = "cannot rename temporary file onto " + files[k].first + ": " + std::strerror(errno);
+      for (std::size_t j = k; j < temps.size(); ++j) ::unlink(temps[j].c_str());
+      return false;
+    }
+    if (written) written->push_back(files[k].first);
   }
   return true;
+}
+
+bool writeFileAtomically(const std::string& path, const std::string& bytes, std::string* error) {
+  return writeFilesAtomically({{path, bytes}}, nullptr, error);
 }
 
 bool readFile(const std::string& path, std::string* bytes, std::string* error) {

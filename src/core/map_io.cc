@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 #include <sstream>
+#include <utility>
 
 #include "octo_slice_mapper/atomic_file.h"
 
@@ -34,22 +35,34 @@ void pngWriteToString(png_structp png, png_bytep data, png_size_t length) {
 
 }  // namespace
 
-bool saveBinaryTree(const octomap::OcTree& tree, const std::string& path, std::string* error) {
+bool addBinaryTree(const octomap::OcTree& tree, const std::string& path, FileSet* files, std::string* error) {
   std::ostringstream out(std::ios::binary);
   if (!tree.writeBinaryConst(out)) {
     *error = "octomap could not serialise the tree for " + path;
     return false;
   }
-  return writeFileAtomically(path, out.str(), error);
+  files->emplace_back(path, out.str());
+  return true;
 }
 
-bool saveFullTree(const octomap::OcTree& tree, const std::string& path, std::string* error) {
+bool addFullTree(const octomap::OcTree& tree, const std::string& path, FileSet* files, std::string* error) {
   std::ostringstream out(std::ios::binary);
   if (!tree.write(out)) {
     *error = "octomap could not serialise the tree for " + path;
     return false;
   }
-  return writeFileAtomically(path, out.str(), error);
+  files->emplace_back(path, out.str());
+  return true;
+}
+
+bool saveBinaryTree(const octomap::OcTree& tree, const std::string& path, std::string* error) {
+  FileSet files;
+  return addBinaryTree(tree, path, &files, error) && writeFilesAtomically(files, nullptr, error);
+}
+
+bool saveFullTree(const octomap::OcTree& tree, const std::string& path, std::string* error) {
+  FileSet files;
+  return addFullTree(tree, path, &files, error) && writeFilesAtomically(files, nullptr, error);
 }
 
 std::unique_ptr<octomap::OcTree> loadTree(const std::string& path, std::string* error) {
@@ -118,7 +131,8 @@ GridImage gridImageOf(const SliceGrid& slice, int margin_cells) {
   return cropToKnown(full, margin_cells);
 }
 
-bool savePgmYaml(const GridImage& grid, const std::string& prefix, std::string* error, const PgmOptions& options) {
+bool addPgmYaml(const GridImage& grid, const std::string& prefix, FileSet* files, std::string* error,
+                const PgmOptions& options) {
   if (grid.width <= 0 || grid.height <= 0) {
     *error = "the map is empty: nothing to write to " + prefix + ".pgm";
     return false;
@@ -144,9 +158,15 @@ bool savePgmYaml(const GridImage& grid, const std::string& prefix, std::string* 
        << "negate: 0\n"
        << "occupied_thresh: " << options.occupied_thresh << "\n"
        << "free_thresh: " << options.free_thresh << "\n";
-  // The image first: a yaml never names a pgm that is not there.
-  return writeFileAtomically(prefix + ".pgm", pgm.str(), error) &&
-         writeFileAtomically(prefix + ".yaml", yaml.str(), error);
+  // The image first (files are renamed in order): a yaml never names a pgm that is not there.
+  files->emplace_back(prefix + ".pgm", pgm.str());
+  files->emplace_back(prefix + ".yaml", yaml.str());
+  return true;
+}
+
+bool savePgmYaml(const GridImage& grid, const std::string& prefix, std::string* error, const PgmOptions& options) {
+  FileSet files;
+  return addPgmYaml(grid, prefix, &files, error, options) && writeFilesAtomically(files, nullptr, error);
 }
 
 bool loadPgmYaml(const std::string& yaml_path, GridImage* grid, std::string* error) {
@@ -219,7 +239,7 @@ bool loadPgmYaml(const std::string& yaml_path, GridImage* grid, std::string* err
   return true;
 }
 
-bool savePng(const GridImage& grid, const std::string& path, std::string* error) {
+bool addPng(const GridImage& grid, const std::string& path, FileSet* files, std::string* error) {
   if (grid.width <= 0 || grid.height <= 0) {
     *error = "the map is empty: nothing to draw into " + path;
     return false;
@@ -260,19 +280,21 @@ bool savePng(const GridImage& grid, const std::string& path, std::string* error)
   }
   png_write_end(png, nullptr);
   png_destroy_write_struct(&png, &info);
-  return writeFileAtomically(path, bytes, error);
+  files->emplace_back(path, std::move(bytes));
+  return true;
+}
+
+bool savePng(const GridImage& grid, const std::string& path, std::string* error) {
+  FileSet files;
+  return addPng(grid, path, &files, error) && writeFilesAtomically(files, nullptr, error);
 }
 
 bool saveMapSet(const octomap::OcTree& tree, const GridImage& grid, const std::string& prefix,
                 std::vector<std::string>* written, std::string* error) {
-  auto record = [written](const std::string& file) {
-    if (written) written->push_back(file);
-    return true;
-  };
-  if (!saveBinaryTree(tree, prefix + ".bt", error) || !record(prefix + ".bt")) return false;
-  if (!saveFullTree(tree, prefix + ".ot", error) || !record(prefix + ".ot")) return false;
-  if (!savePgmYaml(grid, prefix, error) || !record(prefix + ".pgm") || !record(prefix + ".yaml")) return false;
-  return savePng(grid, prefix + ".png", error) && record(prefix + ".png");
+  FileSet files;
+  return addBinaryTree(tree, prefix + ".bt", &files, error) && addFullTree(tree, prefix + ".ot", &files, error) &&
+         addPgmYaml(grid, prefix, &files, error) && addPng(grid, prefix + ".png", &files, error) &&
+         writeFilesAtomically(files, written, error);
 }
 
 }  // namespace octo_slice_mapper

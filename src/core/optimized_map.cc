@@ -51,13 +51,9 @@ bool saveOptimizedSet(const octomap::OcTree& tree, unsigned band_lo, unsigned ba
   octomap::OcTree copy(tree);
   writeGridIntoBand(grid, band_lo, band_hi, &copy);
   const std::string base = prefix + "_optimized";
-  auto record = [written](const std::string& file) {
-    if (written) written->push_back(file);
-    return true;
-  };
-  if (!saveBinaryTree(copy, base + ".bt", error) || !record(base + ".bt")) return false;
-  if (!savePgmYaml(grid, base, error) || !record(base + ".pgm") || !record(base + ".yaml")) return false;
-  return savePng(grid, base + ".png", error) && record(base + ".png");
+  FileSet files;
+  return addBinaryTree(copy, base + ".bt", &files, error) && addPgmYaml(grid, base, &files, error) &&
+         addPng(grid, base + ".png", &files, error) && writeFilesAtomically(files, written, error);
 }
 
 }  // namespace octo_slice_mapper
