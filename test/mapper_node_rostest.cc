@@ -251,6 +251,17 @@ TEST_F(MapperNodeTest, TimeJumpingBackIsDetectedAndMappingContinues) {
   ASSERT_TRUE(waitFor([this] { return cellAt(4.11, 0.0) > 50; }, 20.0)) << "mapping stopped after the jump";
 }
 
+TEST_F(MapperNodeTest, CorruptMapFileStartsAnEmptyMapInsteadOfCrashing) {
+  // mapper_node_bad_resume was given a corrupt ~map_file: it runs, and its map is empty.
+  ASSERT_TRUE(ros::service::waitForService("mapper_node_bad_resume/save_map", 10000)) << "the node did not come up";
+  ::mkdir(kMapsDir, 0755);
+  octo_slice_mapper::SaveMap srv;
+  srv.request.prefix = "bad_resume";
+  ASSERT_TRUE(ros::service::call("mapper_node_bad_resume/save_map", srv));
+  EXPECT_FALSE(srv.response.success);
+  EXPECT_NE(srv.response.message.find("empty"), std::string::npos) << srv.response.message;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
