@@ -18,18 +18,16 @@
 #include <string>
 #include <vector>
 
+#include "bench_common.h"
 #include "octo_slice_mapper/carmen_log.h"
 #include "octo_slice_mapper/map_evaluation.h"
 #include "octo_slice_mapper/mapper.h"
 
 namespace osm = octo_slice_mapper;
 
-namespace {
+using osm::bench::median;
 
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0.0 : v[v.size() / 2];
-}
+namespace {
 
 // Resets the kernel's peak-RSS mark of this process (Linux >= 4.0); false where not allowed.
 bool resetPeakRss() {

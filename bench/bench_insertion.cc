@@ -15,42 +15,15 @@
 #include <string>
 #include <vector>
 
+#include "bench_common.h"
 #include "octo_slice_mapper/mapper.h"
 #include "octo_slice_mapper/sim/session.h"
 
 using Clock = std::chrono::steady_clock;
 namespace osm = octo_slice_mapper;
 
-namespace {
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0.0 : v[v.size() / 2];
-}
-
-struct CloudScan {
-  octomap::Pointcloud points;
-  octomap::point3d origin;
-};
-
-std::vector<CloudScan> toClouds(const std::vector<osm::Scan>& scans) {
-  std::vector<CloudScan> clouds;
-  for (const osm::Scan& s : scans) {
-    CloudScan c;
-    const Eigen::Vector3d o = s.sensor_pose.translation();
-    c.origin = octomap::point3d(o.x(), o.y(), o.z());
-    for (std::size_t i = 0; i < s.ranges.size(); ++i) {
-      if (osm::classifyReading(s.ranges[i], s.range_min, s.range_max, {}) != osm::ReadingKind::kHit) continue;
-      const double a = s.beamAngle(i);
-      const Eigen::Vector3d p = s.sensor_pose * Eigen::Vector3d(s.ranges[i] * std::cos(a), s.ranges[i] * std::sin(a), 0.0);
-      c.points.push_back(p.x(), p.y(), p.z());
-    }
-    clouds.push_back(std::move(c));
-  }
-  return clouds;
-}
-
-}  // namespace
+using octo_slice_mapper::bench::CloudScan;
+using octo_slice_mapper::bench::median;
 
 int main(int argc, char** argv) {
   int repeats = 5;
@@ -62,7 +35,7 @@ int main(int argc, char** argv) {
   }
   const osm::sim::SimulatedSession session(osm::sim::FloorPlan::office(), osm::sim::SessionSpec::officeTour());
   const std::vector<osm::Scan> scans = session.allScans();
-  const std::vector<CloudScan> clouds = toClouds(scans);
+  const std::vector<CloudScan> clouds = osm::bench::returnsAsClouds(scans);
   std::vector<double> ours_tree, ours_returns_only, ours_with_slice, octomap_cloud;
   osm::InsertOptions returns_only;
   returns_only.model.no_return_clear_distance = 0.0;  // the same work insertPointCloud is given

@@ -22,44 +22,20 @@
 #include <string>
 #include <vector>
 
+#include "bench_common.h"
 #include "octo_slice_mapper/carmen_log.h"
 #include "octo_slice_mapper/mapper.h"
 
 namespace osm = octo_slice_mapper;
 using Clock = std::chrono::steady_clock;
 
+using osm::bench::CloudScan;
+using osm::bench::median;
+
 namespace {
 
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0.0 : v[v.size() / 2];
-}
-
-// A scan's returns as world points, for (a) - (c).
-struct PointScan {
-  octomap::point3d origin;
-  octomap::Pointcloud points;
-};
-
-std::vector<PointScan> returnsOf(const std::vector<osm::Scan>& scans) {
-  std::vector<PointScan> out;
-  for (const osm::Scan& s : scans) {
-    PointScan p;
-    const Eigen::Vector3d o = s.sensor_pose.translation();
-    p.origin = octomap::point3d(o.x(), o.y(), o.z());
-    for (std::size_t i = 0; i < s.ranges.size(); ++i) {
-      if (osm::classifyReading(s.ranges[i], s.range_min, s.range_max, {}) != osm::ReadingKind::kHit) continue;
-      const double a = s.beamAngle(i);
-      const Eigen::Vector3d w = s.sensor_pose * Eigen::Vector3d(s.ranges[i] * std::cos(a), s.ranges[i] * std::sin(a), 0.0);
-      p.points.push_back(w.x(), w.y(), w.z());
-    }
-    out.push_back(std::move(p));
-  }
-  return out;
-}
-
 // (a) as octomap_server's insertScan does it (without its ground filter).
-void insertLikeOctomapServer(octomap::OcTree* tree, const PointScan& scan) {
+void insertLikeOctomapServer(octomap::OcTree* tree, const CloudScan& scan) {
   octomap::KeySet free_cells, occupied_cells;
   octomap::KeyRay ray;
   for (const octomap::point3d& p : scan.points) {
@@ -82,7 +58,7 @@ class FlatGrid {
         h_(static_cast<int>(std::ceil((max_y - min_y) / resolution)) + 1),
         cells_(std::size_t(w_) * h_, 0.0f) {}
 
-  void insert(const PointScan& scan) {
+  void insert(const CloudScan& scan) {
     const int ox = cellX(scan.origin.x()), oy = cellY(scan.origin.y());
     for (const octomap::point3d& p : scan.points) {
       const int ex = cellX(p.x()), ey = cellY(p.y());
@@ -152,9 +128,9 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "bench_insertion_methods: %s: %s\n", path.c_str(), error.c_str());
       return 1;
     }
-    const std::vector<PointScan> points = returnsOf(scans);
+    const std::vector<CloudScan> points = osm::bench::returnsAsClouds(scans);
     double min_x = 1e9, min_y = 1e9, max_x = -1e9, max_y = -1e9;
-    for (const PointScan& p : points) {
+    for (const CloudScan& p : points) {
       for (const octomap::point3d& q : p.points) {
         min_x = std::min<double>(min_x, q.x()), max_x = std::max<double>(max_x, q.x());
         min_y = std::min<double>(min_y, q.y()), max_y = std::max<double>(max_y, q.y());
@@ -168,19 +144,19 @@ int main(int argc, char** argv) {
           tree.setProbHit(0.7);
           tree.setProbMiss(0.4);
           a.push_back(msPerScan(scans.size(), [&] {
-            for (const PointScan& p : points) insertLikeOctomapServer(&tree, p);
+            for (const CloudScan& p : points) insertLikeOctomapServer(&tree, p);
           }));
         }
         {
           octomap::OcTree tree(res);
           b.push_back(msPerScan(scans.size(), [&] {
-            for (const PointScan& p : points) tree.insertPointCloud(p.points, p.origin);
+            for (const CloudScan& p : points) tree.insertPointCloud(p.points, p.origin);
           }));
         }
         {
           FlatGrid grid(min_x - 1, min_y - 1, max_x + 1, max_y + 1, res);
           c.push_back(msPerScan(scans.size(), [&] {
-            for (const PointScan& p : points) grid.insert(p);
+            for (const CloudScan& p : points) grid.insert(p);
           }));
         }
         {

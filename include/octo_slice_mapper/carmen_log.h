@@ -69,6 +69,10 @@ class CarmenLogReader {
  private:
   bool readLine(std::string* line);
   void problem(const std::string& message);
+  // n readings from tokens[first], and the pose triple at tokens[first]; false (reported) if bad.
+  bool parseRanges(const std::vector<const char*>& tokens, std::size_t first, std::size_t n, const std::string& kind,
+                   std::vector<float>* ranges);
+  bool parsePose(const std::vector<const char*>& tokens, std::size_t first, const std::string& kind, double pose[3]);
   bool parseOldLaser(const std::vector<const char*>& tokens, const std::string& kind, LogScan* out);
   bool parseRobotLaser(const std::vector<const char*>& tokens, LogScan* out);
   void parseParam(const std::vector<const char*>& tokens);

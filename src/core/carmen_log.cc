@@ -129,6 +129,31 @@ void CarmenLogReader::parseParam(const std::vector<const char*>& tokens) {
   if (std::strcmp(tokens[1], "robot_rear_laser_max") == 0) rear_max_range_ = value;
 }
 
+bool CarmenLogReader::parseRanges(const std::vector<const char*>& tokens, std::size_t first, std::size_t n,
+                                  const std::string& kind, std::vector<float>* ranges) {
+  ranges->resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    double r;
+    if (!toDouble(tokens[first + i], &r)) {
+      problem(kind + ": reading " + std::to_string(i) + " is not a number ('" + tokens[first + i] + "')");
+      return false;
+    }
+    (*ranges)[i] = static_cast<float>(r);  // NaN/negative readings are classified by the mapper
+  }
+  return true;
+}
+
+bool CarmenLogReader::parsePose(const std::vector<const char*>& tokens, std::size_t first, const std::string& kind,
+                                double pose[3]) {
+  for (int k = 0; k < 3; ++k) {
+    if (!toDouble(tokens[first + k], &pose[k]) || !std::isfinite(pose[k])) {
+      problem(kind + ": laser pose is not a finite number");
+      return false;
+    }
+  }
+  return true;
+}
+
 bool CarmenLogReader::parseOldLaser(const std::vector<const char*>& tokens, const std::string& kind, LogScan* out) {
   std::size_t n = 0;
   if (tokens.size() < 2 || !toCount(tokens[1], &n) || n == 0 || n > options_.max_beams) {
@@ -141,22 +166,8 @@ bool CarmenLogReader::parseOldLaser(const std::vector<const char*>& tokens, cons
     return false;
   }
   Scan& scan = out->scan;
-  scan.ranges.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    double r;
-    if (!toDouble(tokens[2 + i], &r)) {
-      problem(kind + ": reading " + std::to_string(i) + " is not a number ('" + tokens[2 + i] + "')");
-      return false;
-    }
-    scan.ranges[i] = static_cast<float>(r);  // NaN/negative readings are classified by the mapper
-  }
   double pose[3];
-  for (int k = 0; k < 3; ++k) {
-    if (!toDouble(tokens[2 + n + k], &pose[k]) || !std::isfinite(pose[k])) {
-      problem(kind + ": laser pose is not a finite number");
-      return false;
-    }
-  }
+  if (!parseRanges(tokens, 2, n, kind, &scan.ranges) || !parsePose(tokens, 2 + n, kind, pose)) return false;
   const double span = M_PI;
   const bool both_ends = n % 2 == 1;
   scan.angle_increment = static_cast<float>(span / static_cast<double>(both_ends ? n - 1 : n));
@@ -194,21 +205,9 @@ bool CarmenLogReader::parseRobotLaser(const std::vector<const char*>& tokens, Lo
     return false;
   }
   Scan& scan = out->scan;
-  scan.ranges.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    double r;
-    if (!toDouble(tokens[9 + i], &r)) {
-      problem("ROBOTLASER1: reading " + std::to_string(i) + " is not a number");
-      return false;
-    }
-    scan.ranges[i] = static_cast<float>(r);
-  }
   double pose[3];
-  for (int k = 0; k < 3; ++k) {
-    if (!toDouble(tokens[10 + n + m + k], &pose[k]) || !std::isfinite(pose[k])) {
-      problem("ROBOTLASER1: laser pose is not a finite number");
-      return false;
-    }
+  if (!parseRanges(tokens, 9, n, "ROBOTLASER1", &scan.ranges) || !parsePose(tokens, 10 + n + m, "ROBOTLASER1", pose)) {
+    return false;
   }
   const double start = header[1], resolution = header[3], max_range = header[4];
   if (resolution == 0.0 || !(max_range > 0.0)) {

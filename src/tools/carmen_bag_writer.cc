@@ -1,6 +1,5 @@
 #include "carmen_bag_writer.h"
 
-#include <geometry_msgs/TransformStamped.h>
 #include <nav_msgs/Odometry.h>
 #include <rosbag/bag.h>
 #include <sensor_msgs/LaserScan.h>
@@ -11,25 +10,10 @@
 #include <cstdio>
 #include <cstring>
 
+#include "planar_transform.h"
+
 namespace octo_slice_mapper {
 namespace tools {
-namespace {
-
-geometry_msgs::TransformStamped planar(const std::string& parent, const std::string& child, const ros::Time& stamp,
-                                       double x, double y, double z, double yaw) {
-  geometry_msgs::TransformStamped t;
-  t.header.frame_id = parent;
-  t.header.stamp = stamp;
-  t.child_frame_id = child;
-  t.transform.translation.x = x;
-  t.transform.translation.y = y;
-  t.transform.translation.z = z;
-  t.transform.rotation.z = std::sin(0.5 * yaw);
-  t.transform.rotation.w = std::cos(0.5 * yaw);
-  return t;
-}
-
-}  // namespace
 
 bool writeCarmenBag(CarmenLogReader* reader, const std::string& bag_path, const CarmenBagOptions& options,
                     CarmenBagReport* report, std::string* error, const std::function<void(double)>& progress) {
@@ -52,12 +36,12 @@ bool writeCarmenBag(CarmenLogReader* reader, const std::string& bag_path, const 
       const double yaw = std::atan2(x_axis.y(), x_axis.x());
       if (!wrote_static) {
         tf2_msgs::TFMessage statics;
-        statics.transforms.push_back(planar(options.base_frame, options.laser_frame, stamp, 0.0, 0.0, p.z(), 0.0));
+        statics.transforms.push_back(planarTransform(options.base_frame, options.laser_frame, stamp, 0.0, 0.0, p.z(), 0.0));
         bag.write("/tf_static", stamp, statics);
         wrote_static = true;
       }
       tf2_msgs::TFMessage tf;
-      tf.transforms.push_back(planar(options.fixed_frame, options.base_frame, stamp, p.x(), p.y(), 0.0, yaw));
+      tf.transforms.push_back(planarTransform(options.fixed_frame, options.base_frame, stamp, p.x(), p.y(), 0.0, yaw));
       bag.write("/tf", stamp, tf);
       nav_msgs::Odometry odom;
       odom.header.stamp = stamp;

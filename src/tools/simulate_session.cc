@@ -19,26 +19,14 @@
 
 #include "octo_slice_mapper/map_io.h"
 #include "octo_slice_mapper/sim/session.h"
+#include "planar_transform.h"
 
 using octo_slice_mapper::sim::Pose2D;
+using octo_slice_mapper::tools::planarTransform;
 
 namespace {
 
 const double kStartTime = 1000.0;  // bag time of t = 0 (ROS time 0 means "unset")
-
-geometry_msgs::TransformStamped transform(const std::string& parent, const std::string& child, const ros::Time& stamp,
-                                          double x, double y, double z, double yaw) {
-  geometry_msgs::TransformStamped tf;
-  tf.header.frame_id = parent;
-  tf.header.stamp = stamp;
-  tf.child_frame_id = child;
-  tf.transform.translation.x = x;
-  tf.transform.translation.y = y;
-  tf.transform.translation.z = z;
-  tf.transform.rotation.z = std::sin(0.5 * yaw);
-  tf.transform.rotation.w = std::cos(0.5 * yaw);
-  return tf;
-}
 
 void usage() {
   std::cerr << "usage: simulate_session --bag FILE.bag --truth PREFIX [--seed N]\n";
@@ -79,7 +67,7 @@ int main(int argc, char** argv) {
     const ros::Time t0(kStartTime);
     tf2_msgs::TFMessage statics;
     statics.transforms.push_back(
-        transform("base_link", "laser", t0, spec.lidar.mount_x, 0.0, spec.lidar.mount_z, 0.0));
+        planarTransform("base_link", "laser", t0, spec.lidar.mount_x, 0.0, spec.lidar.mount_z, 0.0));
     auto latched = boost::make_shared<ros::M_string>();
     (*latched)["latching"] = "1";
     (*latched)["callerid"] = "/simulate_session";
@@ -91,8 +79,8 @@ int main(int argc, char** argv) {
     for (const Pose2D& p : session.poses()) {
       const ros::Time stamp(kStartTime + p.t);
       tf2_msgs::TFMessage tf;
-      tf.transforms.push_back(transform("odom", "base_footprint", stamp, p.x, p.y, 0.0, p.yaw));
-      tf.transforms.push_back(transform("base_footprint", "base_link", stamp, 0.0, 0.0, 0.0, 0.0));
+      tf.transforms.push_back(planarTransform("odom", "base_footprint", stamp, p.x, p.y, 0.0, p.yaw));
+      tf.transforms.push_back(planarTransform("base_footprint", "base_link", stamp, 0.0, 0.0, 0.0, 0.0));
       bag.write("/tf", stamp, tf);
       nav_msgs::Odometry odom;
       odom.header.stamp = stamp;
