@@ -147,11 +147,11 @@ void MapperNode::checkTimeJump(const ros::Time& stamp) {
     }
     last_scan_stamp_ = stamp;
   }
-  // tf2_ros's TransformListener clears its buffer when it sees /clock jump back; the scan already
-  // passed the tf filter with a fresh transform, so the map stays consistent.
+  // tf2_ros's TransformListener clears its buffer itself when /clock jumps back; this scan already
+  // passed the tf filter with a transform at its own stamp, so the map stays consistent.
   if (jumped) {
-    ROS_WARN("time jumped back by %.3f s (bag restarted with --loop, or /clock reset): tf buffer cleared by the "
-             "listener, mapping continues", seconds);
+    ROS_WARN("time jumped back by %.3f s (a bag restarted with --loop, or /clock reset; tf2_ros clears its buffer "
+             "on a /clock jump): mapping continues", seconds);
   }
 }
 
@@ -180,7 +180,7 @@ void MapperNode::onScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
     // Single dropouts are normal for a lidar: counted, and only shown at debug level.
     ROS_DEBUG_THROTTLE(10.0, "scan readings: %s", result.readings.summary().c_str());
   }
-  afterInsert(result, (ros::WallTime::now() - start).toSec());
+  afterInsert(result, (ros::WallTime::now() - start).toSec(), /*from_scan=*/true);
 }
 
 void MapperNode::onCloud(const sensor_msgs::PointCloud2::ConstPtr& msg) {
@@ -202,13 +202,13 @@ void MapperNode::onCloud(const sensor_msgs::PointCloud2::ConstPtr& msg) {
     skip("invalid_cloud", result.error);
     return;
   }
-  afterInsert(result, (ros::WallTime::now() - start).toSec());
+  afterInsert(result, (ros::WallTime::now() - start).toSec(), /*from_scan=*/false);
 }
 
-void MapperNode::afterInsert(const InsertResult& result, double seconds) {
+void MapperNode::afterInsert(const InsertResult& result, double seconds, bool from_scan) {
   std::lock_guard<std::mutex> lock(mutex_);
   insert_seconds_ += seconds;
-  counters_.scans_inserted++;
+  if (from_scan) counters_.scans_inserted++;
   counters_.last_insert_ms = 1000.0 * seconds;
   if (result.voxels_updated > 0) map_changed_ = true;
 }
@@ -261,7 +261,9 @@ bool MapperNode::onSaveMap(SaveMap::Request& req, SaveMap::Response& res) {
   }
   res.success = saveMapSet(*snapshot.tree, snapshot.slice, prefix, &res.files, &error);
   std::string global_pass;
-  if (res.success && options_.optimize_on_save && !snapshot.scans.empty()) {
+  if (res.success && options_.optimize_on_save && snapshot.scans.empty()) {
+    global_pass = "; global pass skipped: no kept scans (~keep_scans is false, or nothing inserted)";
+  } else if (res.success && options_.optimize_on_save) {
     const OptimizedMap optimized = optimizeSnapshot(snapshot, options_.optimize_warm_start);
     global_pass = "; " + describe(optimized.report);
     res.success = saveOptimizedSet(*snapshot.tree, snapshot.band_lo, snapshot.band_hi, optimized.grid, prefix,

@@ -45,7 +45,7 @@ class MapperNode {
   void onTransformFailure(const boost::shared_ptr<const M>& msg, tf2_ros::FilterFailureReason reason);
   bool sensorPose(const std_msgs::Header& header, Eigen::Isometry3d* pose);
   void skip(const std::string& reason, const std::string& message);
-  void afterInsert(const InsertResult& result, double seconds);
+  void afterInsert(const InsertResult& result, double seconds, bool from_scan);
   void publish(const ros::TimerEvent&);
   void publishDiagnostics(const ros::TimerEvent&);
   void expireWaitingScans(const ros::WallTimerEvent&);
