@@ -165,7 +165,12 @@ void ScanInserter::fanOf(const Beam& beam, double tan_half, std::vector<Eigen::V
   directions->clear();
   const double resolution = tree_->getResolution();
   const double half_width = traceLength(beam) * tan_half;
-  const int fan = (beam.across.isZero() || half_width <= resolution) ? 0 : static_cast<int>(std::ceil(half_width / resolution));
+  // Bounded: an absurd reading (3e38 m under range_max = FLT_MAX) must not overflow the count;
+  // such a beam leaves the tree and is dropped anyway.
+  constexpr double kMaxFan = 4096.0;
+  const double cells = half_width / resolution;
+  const int fan = (beam.across.isZero() || half_width <= resolution) ? 0
+                  : static_cast<int>(cells < kMaxFan ? std::ceil(cells) : kMaxFan);
   for (int k = -fan; k <= fan; ++k) {
     const double t = fan ? tan_half * k / fan : 0.0;
     directions->push_back((beam.direction + t * beam.across).normalized());

@@ -95,17 +95,20 @@ void MapperNode::skip(const std::string& reason, const std::string& message) {
 }
 
 void MapperNode::expireWaitingScans(const ros::WallTimerEvent&) {
-  const auto expired = waiting_scans_.expire(ros::WallTime::now(), ros::WallDuration(options_.transform_timeout));
+  const auto transform_there = [this](const sensor_msgs::LaserScan::ConstPtr& msg) {
+    return tf_buffer_.canTransform(options_.frame_id, msg->header.frame_id, msg->header.stamp);
+  };
+  const auto expired =
+      waiting_scans_.expire(ros::WallTime::now(), ros::WallDuration(options_.transform_timeout), transform_there);
   for (const sensor_msgs::LaserScan::ConstPtr& msg : expired) {
     const std::string& frame = msg->header.frame_id;
     std::string why;
     if (!tf_buffer_._frameExists(frame)) {
       skip("unknown_frame", "frame '" + frame + "' is not in tf (waited " + std::to_string(options_.transform_timeout) + " s)");
-    } else if (!tf_buffer_.canTransform(options_.frame_id, frame, msg->header.stamp, &why)) {
+    } else {
+      tf_buffer_.canTransform(options_.frame_id, frame, msg->header.stamp, &why);
       skip("transform_timeout", "no transform " + options_.frame_id + " <- '" + frame + "' within " +
                                     std::to_string(options_.transform_timeout) + " s: " + why);
-    } else {
-      skip("transform_timeout", "transform " + options_.frame_id + " <- '" + frame + "' came too late");
     }
   }
 }

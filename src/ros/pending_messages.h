@@ -30,13 +30,16 @@ class PendingMessages {
     return waiting;
   }
 
-  // Messages waiting longer than `timeout`, each returned once. They stay recorded (holding the
-  // message, so its address can't be reused) until the filter lets go of them.
-  std::vector<Ptr> expire(const ros::WallTime& now, const ros::WallDuration& timeout) {
+  // Messages waiting longer than `timeout` for which `still_possible` is false (e.g. their
+  // transform is still missing: one that is there now is only waiting its turn in a busy queue),
+  // each returned once. They stay recorded (holding the message, so its address can't be reused)
+  // until the filter lets go of them.
+  template <typename Pred>
+  std::vector<Ptr> expire(const ros::WallTime& now, const ros::WallDuration& timeout, Pred still_possible) {
     std::vector<Ptr> expired;
     for (auto& kv : entries_) {
       Entry& e = kv.second;
-      if (!e.timed_out && now - e.arrived > timeout) {
+      if (!e.timed_out && now - e.arrived > timeout && !still_possible(e.msg)) {
         e.timed_out = true;
         expired.push_back(e.msg);
       }
