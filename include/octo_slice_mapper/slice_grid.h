@@ -53,6 +53,9 @@ class SliceGrid {
   std::uint16_t bandMinKey() const { return band_lo_; }
   std::uint16_t bandMaxKey() const { return band_hi_; }
   const SliceOptions& options() const { return options_; }
+  // Changes whenever the grid's size or origin changes (a consumer of incremental updates must
+  // then take the whole grid again).
+  std::uint64_t geometry() const { return geometry_; }
   // Number of cells that are not unknown.
   std::size_t knownCells() const;
   // Bytes of the grid, including the unknown margin it keeps to grow into.
@@ -70,6 +73,7 @@ class SliceGrid {
   std::uint16_t origin_key_x_ = 0, origin_key_y_ = 0;
   int width_ = 0, height_ = 0;
   std::vector<std::int8_t> data_;
+  std::uint64_t geometry_ = 0;
 };
 
 }  // namespace octo_slice_mapper

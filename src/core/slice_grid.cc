@@ -45,6 +45,7 @@ std::size_t SliceGrid::knownCells() const {
 }
 
 void SliceGrid::clear() {
+  ++geometry_;
   width_ = height_ = 0;
   data_.clear();
 }
@@ -101,6 +102,7 @@ void SliceGrid::ensureCovers(std::uint16_t kx0, std::uint16_t ky0, std::uint16_t
     std::copy_n(&data_[std::size_t(j) * width_], width_, &grown[std::size_t(dst_j) * new_w + (origin_key_x_ - nx0)]);
   }
   data_.swap(grown);
+  ++geometry_;
   origin_key_x_ = static_cast<std::uint16_t>(nx0);
   origin_key_y_ = static_cast<std::uint16_t>(ny0);
   width_ = new_w;

@@ -20,6 +20,28 @@ void toOccupancyGrid(const SliceGrid& slice, const std::string& frame_id, const 
   msg->data = slice.data();
 }
 
+bool toOccupancyGridUpdate(const SliceGrid& slice, const KeyBox& box, const std::string& frame_id,
+                           const ros::Time& stamp, map_msgs::OccupancyGridUpdate* msg) {
+  if (box.empty() || slice.width() == 0) return false;
+  const int x0 = std::max(0, int(box.min[0]) - int(slice.originKeyX()));
+  const int y0 = std::max(0, int(box.min[1]) - int(slice.originKeyY()));
+  const int x1 = std::min(slice.width() - 1, int(box.max[0]) - int(slice.originKeyX()));
+  const int y1 = std::min(slice.height() - 1, int(box.max[1]) - int(slice.originKeyY()));
+  if (x1 < x0 || y1 < y0) return false;
+  msg->header.frame_id = frame_id;
+  msg->header.stamp = stamp;
+  msg->x = x0;
+  msg->y = y0;
+  msg->width = static_cast<std::uint32_t>(x1 - x0 + 1);
+  msg->height = static_cast<std::uint32_t>(y1 - y0 + 1);
+  msg->data.resize(std::size_t(msg->width) * msg->height);
+  for (int y = y0; y <= y1; ++y) {
+    const std::int8_t* row = &slice.data()[std::size_t(y) * slice.width() + x0];
+    std::copy(row, row + msg->width, &msg->data[std::size_t(y - y0) * msg->width]);
+  }
+  return true;
+}
+
 void toOccupancyGrid(const GridImage& grid, double z, const std::string& frame_id, const ros::Time& stamp,
                      nav_msgs::OccupancyGrid* msg) {
   msg->header.frame_id = frame_id;

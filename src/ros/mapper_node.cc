@@ -46,6 +46,8 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   }
   map_pub_ = nh_.advertise<nav_msgs::OccupancyGrid>("map", 1, true);
   metadata_pub_ = nh_.advertise<nav_msgs::MapMetaData>("map_metadata", 1, true);
+  // What each scan changed, right after it is inserted (rviz's Map display reads map_updates).
+  map_updates_pub_ = nh_.advertise<map_msgs::OccupancyGridUpdate>("map_updates", 100);
   markers_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("occupied_cells", 1, true);
   optimized_pub_ = pnh_.advertise<nav_msgs::OccupancyGrid>("optimized_map", 1, true);
   diagnostics_pub_ = nh_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 5);
@@ -171,14 +173,24 @@ void MapperNode::onScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
   }
   const ros::WallTime start = ros::WallTime::now();
   InsertResult result;
+  map_msgs::OccupancyGridUpdate update;
+  bool send_update = false, send_full = false;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     result = mapper_.insert(scan);
+    if (result.ok() && !result.touched.empty()) {
+      // The grid grew or moved: an update can't describe that, the whole map goes out first.
+      send_full = mapper_.slice().geometry() != published_geometry_;
+      send_update = !send_full &&
+                    toOccupancyGridUpdate(mapper_.slice(), result.touched, options_.frame_id, msg->header.stamp, &update);
+    }
   }
   if (!result.ok()) {
     skip("invalid_scan", result.error);
     return;
   }
+  if (send_full) publishFullMap(msg->header.stamp, /*with_markers=*/false);
+  if (send_update) map_updates_pub_.publish(update);
   if (result.readings.skipped() > 0) {
     // Single dropouts are normal for a lidar: counted, and only shown at debug level.
     ROS_DEBUG_THROTTLE(10.0, "scan readings: %s", result.readings.summary().c_str());
@@ -217,16 +229,23 @@ void MapperNode::afterInsert(const InsertResult& result, double seconds, bool fr
 }
 
 void MapperNode::publish(const ros::TimerEvent&) {
-  nav_msgs::OccupancyGrid grid;
-  visualization_msgs::MarkerArray markers;
-  const ros::Time now = ros::Time::now();
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (!map_changed_) return;
+  }
+  publishFullMap(ros::Time::now(), /*with_markers=*/true);
+}
+
+void MapperNode::publishFullMap(const ros::Time& stamp, bool with_markers) {
+  nav_msgs::OccupancyGrid grid;
+  visualization_msgs::MarkerArray markers;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
     map_changed_ = false;
-    toOccupancyGrid(mapper_.slice(), options_.frame_id, now, &grid);
-    if (options_.publish_markers && markers_pub_.getNumSubscribers() > 0) {
-      markers = occupiedVoxelMarkers(mapper_.tree(), options_.frame_id, now);
+    published_geometry_ = mapper_.slice().geometry();
+    toOccupancyGrid(mapper_.slice(), options_.frame_id, stamp, &grid);
+    if (with_markers && options_.publish_markers && markers_pub_.getNumSubscribers() > 0) {
+      markers = occupiedVoxelMarkers(mapper_.tree(), options_.frame_id, stamp);
     }
   }
   map_pub_.publish(grid);

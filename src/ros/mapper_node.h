@@ -47,6 +47,7 @@ class MapperNode {
   void skip(const std::string& reason, const std::string& message);
   void afterInsert(const InsertResult& result, double seconds, bool from_scan);
   void publish(const ros::TimerEvent&);
+  void publishFullMap(const ros::Time& stamp, bool with_markers);
   void publishDiagnostics(const ros::TimerEvent&);
   void expireWaitingScans(const ros::WallTimerEvent&);
   // A scan stamped well before the last one: a bag restarted (--loop) or /clock reset.
@@ -70,7 +71,7 @@ class MapperNode {
   message_filters::Subscriber<sensor_msgs::PointCloud2> cloud_sub_;
   std::unique_ptr<tf2_ros::MessageFilter<sensor_msgs::PointCloud2>> cloud_filter_;
 
-  ros::Publisher map_pub_, metadata_pub_, markers_pub_, optimized_pub_, diagnostics_pub_;
+  ros::Publisher map_pub_, metadata_pub_, map_updates_pub_, markers_pub_, optimized_pub_, diagnostics_pub_;
   ros::CallbackQueue service_queue_;
   std::unique_ptr<ros::AsyncSpinner> service_spinner_;
   std::mutex service_mutex_;  // one save / optimize / reset at a time
@@ -80,6 +81,7 @@ class MapperNode {
   PendingMessages<sensor_msgs::LaserScan> waiting_scans_;
 
   bool map_changed_ = true;
+  std::uint64_t published_geometry_ = ~std::uint64_t{0};  // slice geometry of the last full map sent
   NodeCounters counters_;  // guarded by mutex_; map sizes filled in when reported
   std::uint64_t skipped_at_last_report_ = 0;
   ros::Time last_scan_stamp_;

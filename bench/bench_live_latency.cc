@@ -1,0 +1,154 @@
+// bench_live_latency: drives mapper_node through a real roscore like a fast lidar would, and
+// measures how soon each scan shows up in the published map (bench/run_live_latency starts it).
+//
+// A UTM-30LX-like lidar (1081 beams over 270 deg, 30 m) at ~rate Hz drives the simulated office tour
+// in real time: /tf odom -> base_link and the scan, both stamped now. The mapper answers each scan
+// with a map_updates message stamped with the scan's stamp; latency = arrival - stamp. Reports
+// median and p99 over the first and the last third of the run (a small and a grown map), scans
+// without an update (dropped), the mapper's CPU share (from /proc), and the full map's size.
+#include <map_msgs/OccupancyGridUpdate.h>
+#include <nav_msgs/OccupancyGrid.h>
+#include <ros/ros.h>
+#include <sensor_msgs/LaserScan.h>
+#include <tf2_ros/static_transform_broadcaster.h>
+#include <tf2_ros/transform_broadcaster.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "bench_common.h"
+#include "octo_slice_mapper/sim/session.h"
+#include "planar_transform.h"
+
+namespace osm = octo_slice_mapper;
+
+namespace {
+
+// CPU ticks (user + system) of the newest process whose command line starts with `name`.
+long cpuTicksOf(const std::string& name, int* pid_out) {
+  FILE* p = ::popen(("pgrep -n -f '^[^ ]*" + name + "'").c_str(), "r");
+  int pid = 0;
+  if (p) {
+    if (std::fscanf(p, "%d", &pid) != 1) pid = 0;
+    ::pclose(p);
+  }
+  *pid_out = pid;
+  if (!pid) return -1;
+  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
+  std::string line;
+  std::getline(stat, line);
+  std::istringstream in(line.substr(line.rfind(')') + 2));
+  std::string field;
+  long utime = 0, stime = 0;
+  for (int k = 3; k <= 15 && in >> field; ++k) {
+    if (k == 14) utime = std::stol(field);
+    if (k == 15) stime = std::stol(field);
+  }
+  return utime + stime;
+}
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<std::size_t>(q * v.size()))];
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ros::init(argc, argv, "bench_live_latency");
+  ros::NodeHandle nh, pnh("~");
+  double duration = 60.0, rate = 40.0;
+  pnh.param("duration", duration, duration);
+  pnh.param("rate", rate, rate);
+
+  osm::sim::SessionSpec spec = osm::sim::SessionSpec::officeTour();
+  spec.lidar.beams = 1081;
+  spec.lidar.angle_min = static_cast<float>(-0.75 * M_PI);
+  spec.lidar.angle_increment = static_cast<float>(1.5 * M_PI / 1080);
+  spec.lidar.range_max = 30.0f;
+  spec.lidar.rate_hz = rate;
+  const osm::sim::SimulatedSession session(osm::sim::FloorPlan::office(), spec);
+
+  std::map<double, double> latency_by_stamp;  // scan stamp -> latency (s)
+  std::size_t full_maps = 0, map_cells = 0;
+  ros::Subscriber updates = nh.subscribe<map_msgs::OccupancyGridUpdate>(
+      "map_updates", 1000, [&](const map_msgs::OccupancyGridUpdate::ConstPtr& u) {
+        latency_by_stamp.emplace(u->header.stamp.toSec(), (ros::Time::now() - u->header.stamp).toSec());
+      });
+  ros::Subscriber maps = nh.subscribe<nav_msgs::OccupancyGrid>("map", 5, [&](const nav_msgs::OccupancyGrid::ConstPtr& m) {
+    ++full_maps;
+    map_cells = m->data.size();
+  });
+  ros::Publisher scan_pub = nh.advertise<sensor_msgs::LaserScan>("scan", 100);
+  tf2_ros::TransformBroadcaster tf;
+  tf2_ros::StaticTransformBroadcaster static_tf;
+  static_tf.sendTransform(osm::tools::planarTransform("base_link", "laser", ros::Time::now(), spec.lidar.mount_x, 0, spec.lidar.mount_z, 0));
+  ros::AsyncSpinner spinner(1);
+  spinner.start();
+  const ros::WallTime wait_until = ros::WallTime::now() + ros::WallDuration(20.0);
+  while (ros::ok() && scan_pub.getNumSubscribers() == 0 && ros::WallTime::now() < wait_until) ros::WallDuration(0.05).sleep();
+  ros::WallDuration(0.5).sleep();
+
+  int pid = 0;
+  const long ticks0 = cpuTicksOf("mapper_node", &pid);
+  std::mt19937 rng(spec.seed);
+  std::vector<double> stamps;
+  ros::Rate loop(rate);
+  const ros::WallTime start = ros::WallTime::now();
+  for (std::size_t k = 0; ros::ok() && (ros::WallTime::now() - start).toSec() < duration; ++k) {
+    const double t = std::fmod(k / rate, session.duration());
+    const osm::sim::Pose2D pose = session.poseAt(t);
+    const osm::Scan scan = session.scanAt(t, &rng);
+    const ros::Time stamp = ros::Time::now();
+    tf.sendTransform(osm::tools::planarTransform("odom", "base_link", stamp, pose.x, pose.y, 0.0, pose.yaw));
+    sensor_msgs::LaserScan msg;
+    msg.header.stamp = stamp;
+    msg.header.frame_id = "laser";
+    msg.angle_min = scan.angle_min;
+    msg.angle_increment = scan.angle_increment;
+    msg.angle_max = scan.angle_min + scan.angle_increment * (scan.ranges.size() - 1);
+    msg.range_min = scan.range_min;
+    msg.range_max = scan.range_max;
+    msg.ranges = scan.ranges;
+    // The transform goes out first; a second sample just after lets tf interpolate at this stamp.
+    tf.sendTransform(osm::tools::planarTransform("odom", "base_link", stamp + ros::Duration(1e-3), pose.x, pose.y, 0.0, pose.yaw));
+    scan_pub.publish(msg);
+    stamps.push_back(stamp.toSec());
+    loop.sleep();
+  }
+  const double wall = (ros::WallTime::now() - start).toSec();
+  const long ticks1 = cpuTicksOf("mapper_node", &pid);
+  ros::WallDuration(1.0).sleep();  // the last updates
+  spinner.stop();
+
+  const std::size_t third = stamps.size() / 3;
+  std::vector<double> early, late;
+  std::size_t dropped = 0;
+  for (std::size_t k = 0; k < stamps.size(); ++k) {
+    const auto it = latency_by_stamp.find(stamps[k]);
+    if (it == latency_by_stamp.end()) {
+      ++dropped;
+      continue;
+    }
+    if (k < third) early.push_back(it->second * 1000.0);
+    if (k >= stamps.size() - third) late.push_back(it->second * 1000.0);
+  }
+  const double cpu = ticks0 >= 0 && ticks1 >= 0 ? double(ticks1 - ticks0) / ::sysconf(_SC_CLK_TCK) / wall : -1.0;
+  std::printf("{\"bench\": \"live_latency\", \"scans\": %zu, \"rate_hz\": %.1f, \"beams\": %d, \"seconds\": %.1f, "
+              "\"dropped\": %zu, \"latency_ms_first_third\": {\"median\": %.2f, \"p99\": %.2f}, "
+              "\"latency_ms_last_third\": {\"median\": %.2f, \"p99\": %.2f}, \"mapper_cpu_share\": %.3f, "
+              "\"full_maps_received\": %zu, \"map_cells_at_end\": %zu}\n",
+              stamps.size(), rate, spec.lidar.beams, wall, dropped, osm::bench::median(early), percentile(early, 0.99),
+              osm::bench::median(late), percentile(late, 0.99), cpu, full_maps, map_cells);
+  std::fflush(stdout);
+  ros::shutdown();
+  return 0;
+}
