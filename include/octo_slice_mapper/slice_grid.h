@@ -53,8 +53,8 @@ class SliceGrid {
   std::uint16_t bandMinKey() const { return band_lo_; }
   std::uint16_t bandMaxKey() const { return band_hi_; }
   const SliceOptions& options() const { return options_; }
-  // Changes whenever the grid's size or origin changes (a consumer of incremental updates must
-  // then take the whole grid again).
+  // Changes whenever the grid's size or origin changes, and differs between grids (a consumer of
+  // incremental updates must then take the whole grid again).
   std::uint64_t geometry() const { return geometry_; }
   // Number of cells that are not unknown.
   std::size_t knownCells() const;

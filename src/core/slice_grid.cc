@@ -1,10 +1,21 @@
 #include "octo_slice_mapper/slice_grid.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <stdexcept>
 
 namespace octo_slice_mapper {
+namespace {
+
+// Geometry ids are unique across grids: a Mapper reset makes a new grid, and a consumer must not
+// take its first geometry for the old grid's.
+std::uint64_t nextGeometry() {
+  static std::atomic<std::uint64_t> next{1};
+  return next++;
+}
+
+}  // namespace
 
 SliceGrid::SliceGrid(const octomap::OcTree& tree, const SliceOptions& options)
     : tree_(tree), options_(options), resolution_(tree.getResolution()) {
@@ -45,7 +56,7 @@ std::size_t SliceGrid::knownCells() const {
 }
 
 void SliceGrid::clear() {
-  ++geometry_;
+  geometry_ = nextGeometry();
   width_ = height_ = 0;
   data_.clear();
 }
@@ -102,7 +113,7 @@ void SliceGrid::ensureCovers(std::uint16_t kx0, std::uint16_t ky0, std::uint16_t
     std::copy_n(&data_[std::size_t(j) * width_], width_, &grown[std::size_t(dst_j) * new_w + (origin_key_x_ - nx0)]);
   }
   data_.swap(grown);
-  ++geometry_;
+  geometry_ = nextGeometry();
   origin_key_x_ = static_cast<std::uint16_t>(nx0);
   origin_key_y_ = static_cast<std::uint16_t>(ny0);
   width_ = new_w;
