@@ -1,6 +1,5 @@
 // Saving survives being killed half-way and a full disk: the final name always holds a complete
 // map, the old one or the new one, never a torso.
-#include <dirent.h>
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/resource.h>
@@ -12,6 +11,7 @@
 #include "octo_slice_mapper/map_io.h"
 #include "octo_slice_mapper/mapper.h"
 #include "octo_slice_mapper/sim/session.h"
+#include "test_helpers.h"
 
 using namespace octo_slice_mapper;
 
@@ -41,14 +41,11 @@ class AtomicSaveTest : public ::testing::Test {
   void TearDown() override { std::system(("rm -rf " + dir_).c_str()); }
 
   std::vector<std::string> tempFiles() const {
-    std::vector<std::string> names;
-    DIR* d = ::opendir(dir_.c_str());
-    while (dirent* e = ::readdir(d)) {
-      const std::string n = e->d_name;
-      if (n.find(".tmp-") != std::string::npos) names.push_back(n);
+    std::vector<std::string> temps;
+    for (const std::string& n : test_support::filesIn(dir_)) {
+      if (n.find(".tmp-") != std::string::npos) temps.push_back(n);
     }
-    ::closedir(d);
-    return names;
+    return temps;
   }
 
   static Mapper* small_;

@@ -1,6 +1,5 @@
 #include "octo_slice_mapper/map_io.h"
 
-#include <dirent.h>
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -30,17 +29,6 @@ class MapIoTest : public ::testing::Test {
     }
   }
   void TearDown() override { std::system(("rm -rf " + dir_).c_str()); }
-
-  std::vector<std::string> filesInDir() const {
-    std::vector<std::string> names;
-    DIR* d = ::opendir(dir_.c_str());
-    while (dirent* e = ::readdir(d)) {
-      const std::string n = e->d_name;
-      if (n != "." && n != "..") names.push_back(n);
-    }
-    ::closedir(d);
-    return names;
-  }
 
   std::string dir_;
   Mapper mapper_;
@@ -165,7 +153,7 @@ TEST_F(MapIoTest, FailedSaveLeavesNothingHalfWritten) {
   std::string bytes;
   ASSERT_TRUE(readFile(dir_ + "/m.pgm", &bytes, &error));
   EXPECT_EQ(bytes, "old");
-  EXPECT_EQ(filesInDir(), std::vector<std::string>{"m.pgm"});
+  EXPECT_EQ(test_support::filesIn(dir_), std::vector<std::string>{"m.pgm"});
 }
 
 TEST_F(MapIoTest, CorruptOrWrongFilesAreRefusedWithAReason) {

@@ -94,6 +94,14 @@ class MapperNodeTest : public ::testing::Test {
     return grid->data[std::size_t(j) * info.width + i];
   }
 
+  // `times` scans of a wall d metres ahead of the laser, `gap` seconds apart.
+  void publishWall(double d, int times, double gap = 0.05) {
+    for (int k = 0; k < times; ++k) {
+      scan_pub_.publish(scan([d](double a) { return wallAt(d, a); }));
+      ros::WallDuration(gap).sleep();
+    }
+  }
+
   // A wall across x = 0.10 + d (laser frame x = d) seen by the beams within +-30 deg.
   static float wallAt(double d, double angle) {
     return std::abs(angle) < M_PI / 6 ? static_cast<float>(d / std::cos(angle)) : 5.6f;
@@ -108,10 +116,7 @@ class MapperNodeTest : public ::testing::Test {
 };
 
 TEST_F(MapperNodeTest, ScansBecomeAMapWithTheExpectedCells) {
-  for (int k = 0; k < 5; ++k) {
-    scan_pub_.publish(scan([](double a) { return wallAt(2.0, a); }));
-    ros::WallDuration(0.05).sleep();
-  }
+  publishWall(2.0, 5);
   // Wall at x = 2.10 (laser 0.10 ahead of the base): occupied; the space before it free.
   ASSERT_TRUE(waitFor([this] { return cellAt(2.11, 0.0) > 50 && cellAt(1.0, 0.0) >= 0; }, 20.0))
       << "no map with the wall arrived; wall cell " << cellAt(2.11, 0.0);
@@ -129,10 +134,7 @@ TEST_F(MapperNodeTest, BadScansDoNotStopTheNode) {
   scan_pub_.publish(broken);
   ros::WallDuration(0.3).sleep();
   // The node is alive and still mapping: a wall at 3.0 m now appears.
-  for (int k = 0; k < 5; ++k) {
-    scan_pub_.publish(scan([](double a) { return wallAt(3.0, a); }));
-    ros::WallDuration(0.05).sleep();
-  }
+  publishWall(3.0, 5);
   ASSERT_TRUE(waitFor([this] { return cellAt(3.11, 0.0) > 50; }, 20.0)) << "mapping stopped after bad scans";
   EXPECT_NE(cellAt(1.11, 0.0), 100) << "the scans refused for bad structure must not have been inserted";
 }
@@ -173,10 +175,7 @@ TEST_F(MapperNodeTest, ResetClearsTheMap) {
 }
 
 TEST_F(MapperNodeTest, OptimizeRunsTheGlobalPassAndPublishesItsMap) {
-  for (int k = 0; k < 5; ++k) {
-    scan_pub_.publish(scan([](double a) { return wallAt(2.0, a); }));
-    ros::WallDuration(0.05).sleep();
-  }
+  publishWall(2.0, 5);
   ASSERT_TRUE(waitFor([this] { return cellAt(2.11, 0.0) > 50; }, 20.0));
   octo_slice_mapper::Optimize srv;
   srv.request.warm_start = false;
@@ -197,10 +196,7 @@ TEST_F(MapperNodeTest, OptimizeRunsTheGlobalPassAndPublishesItsMap) {
 
 TEST_F(MapperNodeTest, OptimizeOnSaveWritesTheOptimizedFilesToo) {
   ::mkdir(kMapsDir, 0755);
-  for (int k = 0; k < 3; ++k) {
-    scan_pub_.publish(scan([](double a) { return wallAt(2.0, a); }));
-    ros::WallDuration(0.1).sleep();
-  }
+  publishWall(2.0, 3, 0.1);
   ros::WallDuration(0.5).sleep();
   octo_slice_mapper::SaveMap srv;
   srv.request.prefix = "rostest_opt";

@@ -1,6 +1,8 @@
 // Small builders shared by the core tests.
 #pragma once
 
+#include <dirent.h>
+
 #include <Eigen/Geometry>
 #include <cstdlib>
 #include <string>
@@ -38,6 +40,19 @@ inline Scan makeScan(const Eigen::Isometry3d& pose, float angle_min, float incre
 inline std::string sharedDataDir() {
   const char* dir = std::getenv("OSM_DATA_DIR");
   return dir && *dir ? dir : std::string(OSM_SOURCE_DIR) + "/../shared/data";
+}
+
+// Names in a folder (without "." and "..").
+inline std::vector<std::string> filesIn(const std::string& dir) {
+  std::vector<std::string> names;
+  if (DIR* d = ::opendir(dir.c_str())) {
+    while (dirent* e = ::readdir(d)) {
+      const std::string n = e->d_name;
+      if (n != "." && n != "..") names.push_back(n);
+    }
+    ::closedir(d);
+  }
+  return names;
 }
 
 }  // namespace test_support
