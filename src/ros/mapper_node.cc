@@ -117,7 +117,22 @@ void MapperNode::expireWaitingScans(const ros::WallTimerEvent&) {
 
 void MapperNode::onScanTransformFailure(const sensor_msgs::LaserScan::ConstPtr& msg,
                                         tf2_ros::FilterFailureReason reason) {
-  if (waiting_scans_.resolved(msg)) onTransformFailure(msg, reason);  // else counted when it timed out
+  if (!waiting_scans_.resolved(msg)) return;  // counted when it timed out
+  onTransformFailure(msg, reason);
+  // A current scan "older than the tf buffer" means the buffer holds data from the future: the
+  // clock jumped back (a bag --loop) and tf2_ros's own check missed it (a late message from before
+  // the jump refills the buffer right after it clears it; seen in scripts/soak, where a whole loop
+  // was lost). Clearing keeps static transforms (tf2's static caches ignore clear()).
+  constexpr double kCurrent = 1.0;  // s
+  if (reason == tf2_ros::filter_failure_reasons::OutTheBack && msg->header.stamp + ros::Duration(kCurrent) > ros::Time::now()) {
+    tf_buffer_.clear();
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      counters_.time_jumps_back++;
+    }
+    ROS_WARN("tf held data from after a current scan (%.3f s): the clock jumped back unnoticed; tf buffer cleared",
+             msg->header.stamp.toSec());
+  }
 }
 
 template <typename M>
