@@ -36,7 +36,6 @@ struct MapSnapshot {
   GridImage slice;                  // cropped to the known area
   unsigned band_lo = 0, band_hi = 0;  // the slice's z keys
   std::vector<StoredScan> scans;    // only when asked for
-  std::uint64_t scans_inserted = 0;
 };
 
 struct MapperStats {

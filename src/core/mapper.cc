@@ -74,7 +74,6 @@ bool Mapper::save(const std::string& prefix, std::vector<std::string>* written, 
   return saveMapSet(*tree_, gridImageOf(*slice_), prefix, written, error);
 }
 
-
 OptimizedMap Mapper::optimize(bool warm_start, const ProgressFn& progress) const {
   const GridImage incremental = warm_start ? gridImageOf(*slice_) : GridImage();
   return optimizeScans(store_.scans(), options_.optimizer, options_.resolution, warm_start ? &incremental : nullptr,
@@ -88,7 +87,6 @@ MapSnapshot Mapper::snapshot(bool with_scans) const {
   snap.band_lo = slice_->bandMinKey();
   snap.band_hi = slice_->bandMaxKey();
   if (with_scans) snap.scans = store_.scans();
-  snap.scans_inserted = stats_.scans_inserted;
   return snap;
 }
 
