@@ -116,3 +116,17 @@ TEST(InverseSensorModel, RejectsInconsistentOptions) {
   o.sigma_base = 0.0;
   EXPECT_THROW(InverseSensorModel{o}, std::invalid_argument);
 }
+
+// hitUpdate interpolates a table of the axis profile: it stays within 5e-5 of the formula over
+// the whole transition (a coarser table or an off-by-one index would not).
+TEST(InverseSensorModel, TabulatedProfileMatchesTheFormula) {
+  const InverseSensorModel model;
+  const double r = 3.0, sigma = model.sigmaAt(r, 0.0, kHalf);
+  double worst = 0.0;
+  for (double u = -8.0; u < 2.0; u += 0.0013) {
+    const double exact = model.hitProfileExact(u);
+    worst = std::max(worst, std::abs(model.hitUpdate(r, r + u * sigma, 0.0, kHalf) - exact));
+  }
+  EXPECT_LT(worst, 5e-5);
+  EXPECT_NEAR(model.hitProfileExact(0.0), model.logOddsOccupied(), 0.05);
+}

@@ -64,5 +64,6 @@ TEST(OctreeBatchUpdate, SimulatedScansMatchTheReference) {
     applyUpdatesOneByOne(&reference, reference_inserter.computeUpdates(scan.sensor_pose.translation(),
                                                                        reference_inserter.beamsOf(scan, nullptr), half_angle));
   }
+  inserter.flush();
   expectSameTree(fast, reference);
 }

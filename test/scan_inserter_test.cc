@@ -24,6 +24,7 @@ TEST(ScanInserter, OneBeamIntoAnEmptyOctree) {
   ScanInserter inserter(&tree, InsertOptions{});
   // Robot at the origin facing +x: the laser sits at (0.10, 0, 0.26); one beam straight ahead reads 2.0 m.
   const InsertResult result = inserter.insert(makeScan(laserPoseOnRobot(0, 0, 0), 0.0f, 0.01f, {2.0f}));
+  inserter.flush();  // the octree is current only after a flush
   ASSERT_TRUE(result.ok()) << result.error;
   EXPECT_EQ(result.readings[ReadingKind::kHit], 1u);
   const double z = 0.26, hit_x = 2.10;
@@ -53,6 +54,7 @@ TEST(ScanInserter, TiltedRobotTiltsTheRays) {
   const double pitch = 10.0 * M_PI / 180.0;  // nose down (positive pitch about y points +x downwards)
   const Eigen::Isometry3d pose = laserPoseOnRobot(0, 0, 0, pitch);
   ASSERT_TRUE(inserter.insert(makeScan(pose, 0.0f, 0.01f, {2.0f})).ok());
+  inserter.flush();
   const Eigen::Vector3d hit = pose * Eigen::Vector3d(2.0, 0.0, 0.0);
   EXPECT_LT(hit.z(), 0.0);
   const auto* n = nodeAt(tree, hit.x(), hit.y(), hit.z());
@@ -67,6 +69,7 @@ TEST(ScanInserter, EachVoxelUpdatedOncePerScan) {
   // 200 beams in practically the same direction all cross the same voxels.
   const Scan scan = makeScan(laserPoseOnRobot(0, 0, 0), 0.0f, 1e-6f, std::vector<float>(200, 2.0f));
   ASSERT_TRUE(inserter.insert(scan).ok());
+  inserter.flush();
   const auto* free_voxel = nodeAt(tree, 1.0, 0.0, 0.26);
   ASSERT_NE(free_voxel, nullptr);
   EXPECT_NEAR(free_voxel->getLogOdds(), inserter.model().logOddsFree(), 1e-4);
@@ -80,6 +83,7 @@ TEST(ScanInserter, NeighbouringBeamDoesNotEraseAReturn) {
   const float inc = 0.001f;
   const Scan scan = makeScan(laserPoseOnRobot(0, 0, 0), 0.0f, inc, {1.02f, 3.0f});
   ASSERT_TRUE(inserter.insert(scan).ok());
+  inserter.flush();
   const Eigen::Vector3d first_hit = scan.sensor_pose * Eigen::Vector3d(1.02, 0.0, 0.0);
   const Eigen::Vector3d second_near = scan.sensor_pose * (1.02 * Eigen::Vector3d(std::cos(inc), std::sin(inc), 0.0));
   octomap::OcTreeKey k1, k2;
@@ -98,6 +102,7 @@ TEST(ScanInserter, ClampingBoundsTheLogOdds) {
   ScanInserter inserter(&tree, InsertOptions{});
   const Scan scan = makeScan(laserPoseOnRobot(0, 0, 0), -0.1f, 0.005f, std::vector<float>(41, 2.0f));
   for (int i = 0; i < 100; ++i) ASSERT_TRUE(inserter.insert(scan).ok());
+  inserter.flush();
   const auto* occupied = nodeAt(tree, 2.10, 0.0, 0.26);
   const auto* free_voxel = nodeAt(tree, 1.0, 0.0, 0.26);
   ASSERT_NE(occupied, nullptr);
@@ -107,6 +112,7 @@ TEST(ScanInserter, ClampingBoundsTheLogOdds) {
   // Clamping is what lets a person who walked away fade: a few free observations turn it free again.
   const Scan person_gone = makeScan(laserPoseOnRobot(0, 0, 0), -0.1f, 0.005f, std::vector<float>(41, 4.0f));
   for (int i = 0; i < 12; ++i) ASSERT_TRUE(inserter.insert(person_gone).ok());
+  inserter.flush();
   EXPECT_LT(nodeAt(tree, 2.10, 0.0, 0.26)->getLogOdds(), 0.0f);
 }
 
@@ -117,6 +123,7 @@ TEST(ScanInserter, InvalidReadingsAreCountedAndSkipped) {
   // Beams 90 deg apart, one per kind.
   const Scan scan = makeScan(laserPoseOnRobot(0, 0, 0), 0.0f, float(M_PI / 2), {nan, inf, -1.0f, 0.01f}, 0.02f, 5.6f);
   const InsertResult result = inserter.insert(scan);
+  inserter.flush();
   ASSERT_TRUE(result.ok());
   EXPECT_EQ(result.readings[ReadingKind::kNaN], 1u);
   EXPECT_EQ(result.readings[ReadingKind::kInfinite], 1u);
@@ -132,6 +139,7 @@ TEST(ScanInserter, NoReturnClearsWithoutMarkingOccupied) {
   options.model.no_return_clear_distance = 3.0;
   ScanInserter inserter(&tree, options);
   const InsertResult result = inserter.insert(makeScan(laserPoseOnRobot(0, 0, 0), 0.0f, 0.01f, {5.6f}));
+  inserter.flush();
   ASSERT_TRUE(result.ok());
   EXPECT_EQ(result.readings[ReadingKind::kNoReturn], 1u);
   std::size_t free_leaves = 0;
@@ -148,6 +156,7 @@ TEST(ScanInserter, RejectedScanLeavesTheMapUntouched) {
   ScanInserter inserter(&tree, InsertOptions{});
   Scan scan = makeScan(laserPoseOnRobot(0, 0, 0), 0.0f, 0.0f, {2.0f});
   const InsertResult result = inserter.insert(scan);
+  inserter.flush();
   EXPECT_FALSE(result.ok());
   EXPECT_EQ(tree.size(), 0u);
 }
@@ -158,6 +167,7 @@ TEST(ScanInserter, MaxRangeCutsLongReturns) {
   options.max_range = 1.0;
   ScanInserter inserter(&tree, options);
   ASSERT_TRUE(inserter.insert(makeScan(laserPoseOnRobot(0, 0, 0), 0.0f, 0.01f, {3.0f})).ok());
+  inserter.flush();
   for (auto it = tree.begin_leafs(); it != tree.end_leafs(); ++it) EXPECT_LE(it->getLogOdds(), 0.0f);
   EXPECT_EQ(nodeAt(tree, 3.10, 0.0, 0.26), nullptr);
 }
@@ -167,6 +177,7 @@ TEST(ScanInserter, PointCloudUsesTheSameModel) {
   ScanInserter inserter(&tree, InsertOptions{});
   const Eigen::Vector3d origin(0.0, 0.0, 0.5);
   const InsertResult result = inserter.insertPoints(origin, {Eigen::Vector3f(2.0f, 0.0f, 0.5f)}, 0.005);
+  inserter.flush();
   ASSERT_TRUE(result.ok());
   EXPECT_GT(nodeAt(tree, 2.0, 0.0, 0.5)->getLogOdds(), 0.0f);
   EXPECT_NEAR(nodeAt(tree, 1.0, 0.0, 0.5)->getLogOdds(), inserter.model().logOddsFree(), 1e-4);
@@ -180,6 +191,7 @@ TEST(ScanInserter, CoordinatesOutsideTheTreeAreDroppedSafely) {
   Eigen::Isometry3d far_away = Eigen::Isometry3d::Identity();
   far_away.translation() = Eigen::Vector3d(-1e308, 0.0, 0.26);  // finite, so the header check passes
   EXPECT_TRUE(inserter.insert(makeScan(far_away, -1.0f, 0.01f, std::vector<float>(201, 2.0f))).ok());
+  inserter.flush();
   EXPECT_EQ(tree.size(), 0u) << "a sensor outside the tree adds nothing";
   // A reading of 3e38 m under range_max = FLT_MAX: that beam leaves the tree and is dropped; its
   // neighbours still map.
@@ -187,6 +199,7 @@ TEST(ScanInserter, CoordinatesOutsideTheTreeAreDroppedSafely) {
   ranges[100] = 3e38f;
   const InsertResult result =
       inserter.insert(makeScan(laserPoseOnRobot(0, 0, 0), -1.0f, 0.01f, ranges, 0.02f, std::numeric_limits<float>::max()));
+  inserter.flush();
   ASSERT_TRUE(result.ok());
   const octomap::OcTreeNode* wall = tree.search(2.10, 0.0, 0.26);
   ASSERT_NE(wall, nullptr);

@@ -65,7 +65,8 @@ class Mapper {
   void applyOptimized(const GridImage& grid);
   MapSnapshot snapshot(bool with_scans) const;
 
-  const octomap::OcTree& tree() const { return *tree_; }
+  // The octree, brought up to date with the insertion cache first.
+  const octomap::OcTree& tree() const;
   const SliceGrid& slice() const { return *slice_; }
   const MapperStats& stats() const { return stats_; }
   const MapperOptions& options() const { return options_; }

@@ -5,11 +5,13 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <functional>
 #include <unordered_map>
 #include <vector>
 
 #include "octo_slice_mapper/inverse_sensor_model.h"
 #include "octo_slice_mapper/key_box.h"
+#include "octo_slice_mapper/layer_cache.h"
 #include "octo_slice_mapper/octree_batch_update.h"
 #include "octo_slice_mapper/scan.h"
 
@@ -62,6 +64,10 @@ class ScanInserter {
   // The interpretation of a scan as beams (exposed for tests and the reference implementation).
   std::vector<Beam> beamsOf(const Scan& scan, ReadingCounts* counts) const;
 
+  // Every (voxel, evidence) pair the model gives for a scan, before combining per voxel: what the
+  // fast path folds into the cache, for a straightforward reference implementation to check it.
+  void traceEvidence(const Scan& scan, const std::function<void(const octomap::OcTreeKey&, float)>& fn);
+
   // Per-voxel log-odds updates of one scan before they are applied, in traversal order.
   std::vector<KeyUpdate> computeUpdates(const Eigen::Vector3d& origin, const std::vector<Beam>& beams,
                                           double half_angle);
@@ -69,11 +75,30 @@ class ScanInserter {
   const InverseSensorModel& model() const { return model_; }
   const InsertOptions& options() const { return options_; }
 
+  // Level scans update a cache of the octree's layers (see LayerCache): the octree itself is
+  // up to date only after flush(). Whoever changes the octree by other means must flush() before
+  // and dropCache() after.
+  void flush() { cache_.flush(); }
+  void dropCache() { cache_.clear(); }
+  const LayerCache& cache() const { return cache_; }
+
  private:
   InsertResult apply(std::vector<KeyUpdate> updates, InsertResult result);
+  InsertResult insertLevel(const Eigen::Vector3d& origin, const std::vector<Beam>& beams, double half_angle,
+                           InsertResult result);
+  KeyBox prepareBeams(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
+                      const std::vector<Beam>& beams, double tan_half, std::vector<char>* usable);
+  template <typename Sink>
+  void traceBeams(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key, const std::vector<Beam>& beams,
+                  const std::vector<char>& usable, double half_angle, Sink&& sink);
   void accumulate(const octomap::OcTreeKey& key, float value);
   double traceLength(const Beam& beam) const;
-  void fanOf(const Beam& beam, double tan_half, std::vector<Eigen::Vector3d>* directions) const;
+  struct Ray {
+    Eigen::Vector3d direction;
+    double start;  // distance from the origin where it starts
+    bool axis;
+  };
+  void fanOf(const Beam& beam, double tan_half, std::vector<Ray>* rays) const;
   bool inWindow(const octomap::OcTreeKey& key) const;  // false in sparse mode
   std::size_t windowIndex(const octomap::OcTreeKey& key) const;
   void prepareWindow(const octomap::OcTreeKey& lo, const octomap::OcTreeKey& hi);
@@ -93,6 +118,9 @@ class ScanInserter {
   std::unordered_map<octomap::OcTreeKey, std::int32_t, octomap::OcTreeKey::KeyHash> sparse_;
   octomap::OcTreeKey window_lo_;
   int window_nx_ = 0, window_ny_ = 0, window_nz_ = 0;
+  std::vector<Ray> fan_;  // scratch: one beam's rays
+
+  LayerCache cache_;
 };
 
 }  // namespace octo_slice_mapper

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "octo_slice_mapper/key_box.h"
+#include "octo_slice_mapper/layer_cache.h"
 
 namespace octo_slice_mapper {
 
@@ -25,7 +26,8 @@ constexpr std::int8_t kUnknownCell = -1;
 // band blocks the robot.
 class SliceGrid {
  public:
-  SliceGrid(const octomap::OcTree& tree, const SliceOptions& options);
+  // With a `cache`, voxels of its layers are read from it (the tree may lag behind it).
+  SliceGrid(const octomap::OcTree& tree, const SliceOptions& options, const LayerCache* cache = nullptr);
 
   // Recomputes the columns inside `box` (x/y of the keys; the band decides z). Cost is
   // proportional to the box area, independent of the map size.
@@ -64,8 +66,11 @@ class SliceGrid {
  private:
   void ensureCovers(std::uint16_t kx0, std::uint16_t ky0, std::uint16_t kx1, std::uint16_t ky1);
   std::int8_t columnValue(std::uint16_t kx, std::uint16_t ky) const;
+  const octomap::OcTreeNode* bandVoxel(const octomap::OcTreeNode* top, std::uint16_t kx, std::uint16_t ky,
+                                       unsigned kz) const;
 
   const octomap::OcTree& tree_;
+  const LayerCache* cache_;
   SliceOptions options_;
   double resolution_;
   std::uint16_t band_lo_, band_hi_;

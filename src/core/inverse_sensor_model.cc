@@ -27,6 +27,33 @@ InverseSensorModel::InverseSensorModel(const InverseSensorModelOptions& options,
   const double l0 = logOdds(options.prior);
   l_free_ = static_cast<float>(logOdds(options.p_free) - l0);
   l_occ_ = static_cast<float>(logOdds(options.p_occupied) - l0);
+  // The profiles depend on u alone: tabulate them once (erfc, exp and cos per voxel cost more
+  // than the rest of an insertion).
+  const int n = static_cast<int>((kBehindCutoff - kPureFreeBelow) * kStepsPerSigma);
+  hit_profile_.resize(n + 1);
+  free_profile_.resize(n + 1);
+  for (int i = 0; i <= n; ++i) {
+    const double u = kPureFreeBelow + double(i) / kStepsPerSigma;
+    hit_profile_[i] = hitProfileExact(u);
+    free_profile_[i] = l_free_ * freeShare(u);
+  }
+}
+
+double InverseSensorModel::freeShare(double u) { return 0.5 * std::erfc((u + 2.0) / M_SQRT2); }
+
+double InverseSensorModel::hitProfileExact(double u) const {
+  if (u >= kBehindCutoff) return 0.0;
+  const double behind = u <= 1.0 ? 1.0 : 0.5 * (1.0 + std::cos(M_PI * (u - 1.0) / (kBehindCutoff - 1.0)));
+  const double peak = std::exp(-0.5 * u * u) * behind;
+  return l_free_ * freeShare(u) + l_occ_ * peak;
+}
+
+// Linear interpolation in a table over u in [kPureFreeBelow, kBehindCutoff).
+double InverseSensorModel::lookup(const std::vector<double>& table, double u) {
+  const double x = (u - kPureFreeBelow) * kStepsPerSigma;
+  const std::size_t i = std::min(static_cast<std::size_t>(x), table.size() - 2);
+  const double f = x - double(i);
+  return table[i] + f * (table[i + 1] - table[i]);
 }
 
 double InverseSensorModel::halfAngleFor(double angle_increment) const {
@@ -62,12 +89,9 @@ float InverseSensorModel::hitUpdate(double range, double along, double off_axis,
   const double sigma = sigmaAt(range, off_axis, half_angle);
   const double u = (along - range) / sigma;
   if (u >= kBehindCutoff) return 0.0f;
-  // Deep in the free valley F = 1 and G = 0 to float precision: skip erfc/exp (most voxels).
+  // Deep in the free valley F = 1 and G = 0 to float precision.
   if (u < kPureFreeBelow) return static_cast<float>(w * l_free_);
-  const double free_share = 0.5 * std::erfc((u + 2.0) / M_SQRT2);
-  const double behind = u <= 1.0 ? 1.0 : 0.5 * (1.0 + std::cos(M_PI * (u - 1.0) / (kBehindCutoff - 1.0)));
-  const double peak = std::exp(-0.5 * u * u) * behind;
-  return static_cast<float>(w * (l_free_ * free_share + l_occ_ * peak));
+  return static_cast<float>(w * lookup(hit_profile_, u));
 }
 
 float InverseSensorModel::noReturnUpdate(double clear_distance, double along, double off_axis,
@@ -78,7 +102,7 @@ float InverseSensorModel::noReturnUpdate(double clear_distance, double along, do
   const double u = (along - clear_distance) / sigma;
   if (u >= kBehindCutoff) return 0.0f;
   if (u < kPureFreeBelow) return static_cast<float>(w * l_free_);
-  return static_cast<float>(w * l_free_ * 0.5 * std::erfc((u + 2.0) / M_SQRT2));
+  return static_cast<float>(w * lookup(free_profile_, u));
 }
 
 }  // namespace octo_slice_mapper

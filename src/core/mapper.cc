@@ -23,7 +23,7 @@ void Mapper::adopt(std::unique_ptr<octomap::OcTree> tree) {
   options_.resolution = tree->getResolution();
   // Build the new parts before swapping, so a bad option leaves the old map in place.
   auto inserter = std::make_unique<ScanInserter>(tree.get(), options_.insert);
-  auto slice = std::make_unique<SliceGrid>(*tree, options_.slice);
+  auto slice = std::make_unique<SliceGrid>(*tree, options_.slice, &inserter->cache());
   slice->rebuild();
   tree_ = std::move(tree);
   inserter_ = std::move(inserter);
@@ -70,8 +70,13 @@ bool Mapper::load(const std::string& path, std::string* error) {
   return true;
 }
 
+const octomap::OcTree& Mapper::tree() const {
+  inserter_->flush();
+  return *tree_;
+}
+
 bool Mapper::save(const std::string& prefix, std::vector<std::string>* written, std::string* error) const {
-  return saveMapSet(*tree_, gridImageOf(*slice_), prefix, written, error);
+  return saveMapSet(tree(), gridImageOf(*slice_), prefix, written, error);
 }
 
 OptimizedMap Mapper::optimize(bool warm_start, const ProgressFn& progress) const {
@@ -82,7 +87,7 @@ OptimizedMap Mapper::optimize(bool warm_start, const ProgressFn& progress) const
 
 MapSnapshot Mapper::snapshot(bool with_scans) const {
   MapSnapshot snap;
-  snap.tree = std::make_unique<octomap::OcTree>(*tree_);
+  snap.tree = std::make_unique<octomap::OcTree>(tree());
   snap.slice = gridImageOf(*slice_);
   snap.band_lo = slice_->bandMinKey();
   snap.band_hi = slice_->bandMaxKey();
@@ -91,7 +96,9 @@ MapSnapshot Mapper::snapshot(bool with_scans) const {
 }
 
 void Mapper::applyOptimized(const GridImage& grid) {
+  inserter_->flush();
   const std::vector<octomap::OcTreeKey> keys = writeGridIntoBand(grid, slice_->bandMinKey(), slice_->bandMaxKey(), tree_.get());
+  inserter_->dropCache();  // it holds the values from before
   KeyBox box;
   for (const octomap::OcTreeKey& k : keys) box.add(k);
   slice_->updateColumns(keys, box);

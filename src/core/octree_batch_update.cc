@@ -49,6 +49,7 @@ struct Batch {
   octomap::OcTree* tree;
   const std::vector<KeyUpdate>* updates;
   unsigned depth_max;
+  bool set;  // log_odds are values to set, not to add
 };
 
 // Mirrors OccupancyOcTreeBase::updateNodeRecurs for all updates of [begin, end), which all lie
@@ -57,7 +58,11 @@ void applyRecurs(const Batch& b, octomap::OcTreeNode* node, bool node_just_creat
                  std::size_t begin, std::size_t end) {
   octomap::OcTree& tree = *b.tree;
   if (depth == b.depth_max) {
-    tree.updateNodeLogOdds(node, (*b.updates)[begin].log_odds);
+    if (b.set) {
+      node->setLogOdds((*b.updates)[begin].log_odds);
+    } else {
+      tree.updateNodeLogOdds(node, (*b.updates)[begin].log_odds);
+    }
     return;
   }
   const unsigned bit = b.depth_max - 1 - depth;
@@ -81,21 +86,34 @@ void applyRecurs(const Batch& b, octomap::OcTreeNode* node, bool node_just_creat
   if (!tree.pruneNode(node)) node->updateOccupancyChildren();
 }
 
-}  // namespace
-
-void applyUpdatesInTreeOrder(octomap::OcTree* tree, std::vector<KeyUpdate>* updates) {
+void applyInTreeOrder(octomap::OcTree* tree, std::vector<KeyUpdate>* updates, bool set) {
   if (updates->empty()) return;
   sortInTreeOrder(updates);
   std::size_t first = 0;
   if (!tree->getRoot()) {
-    // Only updateNode can create the root; the rest then goes below it.
-    tree->updateNode((*updates)[0].key, (*updates)[0].log_odds);
+    // Only updateNode / setNodeValue can create the root; the rest then goes below it.
+    const KeyUpdate& u = (*updates)[0];
+    if (set) {
+      tree->setNodeValue(u.key, u.log_odds);
+    } else {
+      tree->updateNode(u.key, u.log_odds);
+    }
     first = 1;
   }
   if (first < updates->size()) {
-    const Batch batch{tree, updates, tree->getTreeDepth()};
+    const Batch batch{tree, updates, tree->getTreeDepth(), set};
     applyRecurs(batch, tree->getRoot(), false, 0, first, updates->size());
   }
+}
+
+}  // namespace
+
+void applyUpdatesInTreeOrder(octomap::OcTree* tree, std::vector<KeyUpdate>* updates) {
+  applyInTreeOrder(tree, updates, false);
+}
+
+void setValuesInTreeOrder(octomap::OcTree* tree, std::vector<KeyUpdate>* values) {
+  applyInTreeOrder(tree, values, true);
 }
 
 void applyUpdatesOneByOne(octomap::OcTree* tree, const std::vector<KeyUpdate>& updates) {

@@ -10,7 +10,8 @@ namespace {
 // at 0.02 m); such scans use a hash map instead.
 constexpr std::size_t kMaxWindowCells = std::size_t{16} << 20;
 // Visits, in order, the voxels the segment from `from` to `to` crosses (Amanatides & Woo), from
-// the voxel of `from` to the voxel of `to`, both included. Inline, so nothing is stored per step.
+// the voxel of `from` to the voxel of `to`, both included, as visit(key, t_exit): t_exit is where
+// (as a fraction of the segment) it leaves the voxel. Inline, so nothing is stored per step.
 template <typename Visit>
 inline void traverseVoxels(const octomap::OcTree& tree, const Eigen::Vector3d& from, const Eigen::Vector3d& to,
                            const octomap::OcTreeKey& from_key, const octomap::OcTreeKey& to_key, Visit&& visit) {
@@ -36,22 +37,69 @@ inline void traverseVoxels(const octomap::OcTree& tree, const Eigen::Vector3d& f
     }
   }
   octomap::OcTreeKey current = from_key;
-  visit(current);
   // Exactly one axis advances per step, so the end voxel is reached after steps_left steps.
-  for (; steps_left > 0; --steps_left) {
+  for (;; --steps_left) {
     const int dim = t_max[0] < t_max[1] ? (t_max[0] < t_max[2] ? 0 : 2) : (t_max[1] < t_max[2] ? 1 : 2);
+    visit(current, t_max[dim]);
+    if (steps_left == 0) break;
     key[dim] += step[dim];
     t_max[dim] += t_delta[dim];
     current[dim] = static_cast<octomap::key_type>(key[dim]);
-    visit(current);
   }
-  if (!(current == to_key)) visit(to_key);  // rounding took another route: still end at the return
+  if (!(current == to_key)) visit(to_key, 1.0);  // rounding took another route: still end at the return
+}
+
+// The same walk for a segment in one horizontal layer (from.z == to.z): the same voxels and
+// t_exit as traverseVoxels gives for it (its z step never wins). Branch-free per step: which axis
+// advances is unpredictable along a slanted ray, and a mispredicted branch per voxel costs more
+// than the rest of the step.
+template <typename Visit>
+inline void traverseLevel(const octomap::OcTree& tree, const Eigen::Vector3d& from, const Eigen::Vector3d& to,
+                          const octomap::OcTreeKey& from_key, const octomap::OcTreeKey& to_key, Visit&& visit) {
+  const double resolution = tree.getResolution();
+  constexpr double kNever = 1e300;  // finite, so that 0 * kNever stays 0
+  int key[2] = {from_key[0], from_key[1]};
+  int step[2];
+  double t_max[2], t_delta[2];
+  int steps_left = 0;
+  for (int i = 0; i < 2; ++i) {
+    const double delta = to[i] - from[i];
+    steps_left += std::abs(int(to_key[i]) - key[i]);
+    if (delta > 0.0) {
+      step[i] = 1;
+      t_delta[i] = resolution / delta;
+      t_max[i] = (tree.keyToCoord(from_key[i]) + 0.5 * resolution - from[i]) / delta;
+    } else if (delta < 0.0) {
+      step[i] = -1;
+      t_delta[i] = -resolution / delta;
+      t_max[i] = (tree.keyToCoord(from_key[i]) - 0.5 * resolution - from[i]) / delta;
+    } else {
+      step[i] = 0;
+      t_delta[i] = t_max[i] = kNever;
+    }
+  }
+  const octomap::key_type z = from_key[2];
+  int kx = key[0], ky = key[1];
+  double tx = t_max[0], ty = t_max[1];
+  // Indexed by "x advances": a load instead of a branch or an int-to-double conversion.
+  const int step_x[2] = {0, step[0]}, step_y[2] = {step[1], 0};
+  const double delta_x[2] = {0.0, t_delta[0]}, delta_y[2] = {t_delta[1], 0.0};
+  for (;; --steps_left) {
+    const int x_first = tx < ty;  // ties step y, as traverseVoxels does
+    visit(octomap::OcTreeKey(kx, ky, z), std::min(tx, ty));
+    if (steps_left == 0) break;
+    kx += step_x[x_first];
+    ky += step_y[x_first];
+    tx += delta_x[x_first];
+    ty += delta_y[x_first];
+  }
+  if (kx != to_key[0] || ky != to_key[1]) visit(to_key, 1.0);
 }
 
 }  // namespace
 
 ScanInserter::ScanInserter(octomap::OcTree* tree, const InsertOptions& options)
-    : tree_(tree), options_(options), model_(options.model, 0.5 * tree->getResolution()) {}
+    : tree_(tree), options_(options), model_(options.model, 0.5 * tree->getResolution()), cache_(tree) {}
 
 std::vector<Beam> ScanInserter::beamsOf(const Scan& scan, ReadingCounts* counts) const {
   std::vector<Beam> beams;
@@ -85,6 +133,10 @@ InsertResult ScanInserter::insert(const Scan& scan) {
   if (!result.ok()) return result;
   const std::vector<Beam> beams = beamsOf(scan, &result.readings);
   const double half_angle = model_.halfAngleFor(scan.angle_increment);
+  const Eigen::Matrix3d& rotation = scan.sensor_pose.linear();
+  if (rotation(2, 0) == 0.0 && rotation(2, 1) == 0.0) {
+    return insertLevel(scan.sensor_pose.translation(), beams, half_angle, result);
+  }
   return apply(computeUpdates(scan.sensor_pose.translation(), beams, half_angle), result);
 }
 
@@ -160,9 +212,10 @@ __attribute__((always_inline)) inline void ScanInserter::accumulate(const octoma
 }
 
 // The rays traced for one beam: its axis and, where the cone is wider than a voxel, rays fanned
-// across the cone in the scan plane, at most one voxel apart at the far end.
-void ScanInserter::fanOf(const Beam& beam, double tan_half, std::vector<Eigen::Vector3d>* directions) const {
-  directions->clear();
+// across the cone in the scan plane, at most one voxel apart at the far end. A fanned ray starts
+// where it is half a voxel off the axis: closer in, the axis' voxels cover the cone.
+void ScanInserter::fanOf(const Beam& beam, double tan_half, std::vector<Ray>* rays) const {
+  rays->clear();
   const double resolution = tree_->getResolution();
   const double half_width = traceLength(beam) * tan_half;
   // Bounded: an absurd reading (3e38 m under range_max = FLT_MAX) must not overflow the count;
@@ -173,7 +226,143 @@ void ScanInserter::fanOf(const Beam& beam, double tan_half, std::vector<Eigen::V
                   : static_cast<int>(cells < kMaxFan ? std::ceil(cells) : kMaxFan);
   for (int k = -fan; k <= fan; ++k) {
     const double t = fan ? tan_half * k / fan : 0.0;
-    directions->push_back((beam.direction + t * beam.across).normalized());
+    const double start = k == 0 ? 0.0 : 0.5 * resolution * std::sqrt(1.0 + t * t) / std::abs(t);
+    rays->push_back({(beam.direction + t * beam.across).normalized(), start, k == 0});
+  }
+}
+
+// First pass over a scan's beams: which stay inside the octree's key range (`usable`), and the key
+// box of all ray ends (rays are straight, so the box of the origin and the ends holds every voxel
+// they cross).
+KeyBox ScanInserter::prepareBeams(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
+                                  const std::vector<Beam>& beams, double tan_half, std::vector<char>* usable) {
+  usable->assign(beams.size(), 0);
+  KeyBox box;
+  box.add(origin_key);
+  for (std::size_t b = 0; b < beams.size(); ++b) {
+    fanOf(beams[b], tan_half, &fan_);
+    KeyBox beam_box;
+    bool inside = true;
+    for (const Ray& ray : fan_) {  // the arc of ends bulges past the outer rays' chord
+      const Eigen::Vector3d end = origin + ray.direction * traceLength(beams[b]);
+      octomap::OcTreeKey key;
+      inside = inside && coordToKeySafe(*tree_, end.x(), end.y(), end.z(), &key);
+      if (inside) beam_box.add(key);
+    }
+    if (!inside) continue;
+    (*usable)[b] = 1;
+    box.add(beam_box);
+  }
+  return box;
+}
+
+// Second pass: every voxel each usable beam reaches, with the model's evidence for it, handed to
+// `sink(key, value)` (zero evidence is not handed on).
+template <typename Sink>
+void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
+                              const std::vector<Beam>& beams, const std::vector<char>& usable, double half_angle,
+                              Sink&& sink) {
+  const double tan_half = std::tan(half_angle);
+  const double tan_full = std::tan(model_.fullWeightAngle(half_angle));
+  // A voxel's centre is at most half its diagonal from any point inside it.
+  const double half_diagonal = 0.5 * std::sqrt(3.0) * tree_->getResolution();
+  const double half_diagonal_sq = half_diagonal * half_diagonal;
+  const float l_free = model_.logOddsFree();
+  for (std::size_t b = 0; b < beams.size(); ++b) {
+    if (!usable[b]) continue;
+    const Beam& beam = beams[b];
+    const double length = traceLength(beam);
+    // On the axis, closer than this the model is exactly the free valley (see hitUpdate).
+    const double pure_free_until = beam.length - model_.pureFreeMargin(beam.length);
+    // Off the axis, where the weight is still 1, the free valley ends sooner (sigma widens).
+    const double off_axis_free_until =
+        beam.length + InverseSensorModel::kPureFreeBelow * model_.sigmaAt(beam.length, half_angle, half_angle);
+    // The model's evidence for a voxel whose centre lies `along` the axis and sqrt(lateral_sq) off it.
+    auto judge = [&](const octomap::OcTreeKey& key, double along, double lateral_sq) __attribute__((always_inline)) {
+      along = std::max(0.0, along);
+      // Voxels the axis passes through are squarely inside the cone.
+      const bool on_axis = lateral_sq <= half_diagonal_sq || along <= 0.0;
+      if (on_axis && along < pure_free_until) {
+        sink(key, l_free);
+        return;
+      }
+      double off_axis = 0.0;
+      if (!on_axis) {
+        // tan of the angle between the axis and the voxel's part nearest to it; atan only when
+        // the voxel is in the cone's taper or near the return.
+        const double tan_off = (std::sqrt(lateral_sq) - half_diagonal) / along;
+        if (tan_off >= tan_half) return;  // outside the cone
+        if (tan_off <= tan_full && along < off_axis_free_until) {
+          sink(key, l_free);
+          return;
+        }
+        off_axis = std::atan(tan_off);
+      }
+      const float value = beam.hit ? model_.hitUpdate(beam.length, along, off_axis, half_angle)
+                                   : model_.noReturnUpdate(beam.length, along, off_axis, half_angle);
+      if (value != 0.0f) sink(key, value);
+    };
+    auto evaluate = [&](const octomap::OcTreeKey& key) __attribute__((always_inline)) {
+      const octomap::point3d c = tree_->keyToCoord(key);
+      const Eigen::Vector3d v(c.x() - origin.x(), c.y() - origin.y(), c.z() - origin.z());
+      const double along = v.dot(beam.direction);
+      judge(key, along, (v - std::max(0.0, along) * beam.direction).squaredNorm());
+    };
+    // For a scan beam in a level scan, the same in the plane: `across` is the in-plane normal of
+    // the axis, and the voxel centre's height above the origin is the same for the whole layer.
+    const double dz = tree_->keyToCoord(origin_key[2]) - origin.z();
+    auto evaluate_level = [&](const octomap::OcTreeKey& key) __attribute__((always_inline)) {
+      const double vx = tree_->keyToCoord(key[0]) - origin.x(), vy = tree_->keyToCoord(key[1]) - origin.y();
+      const double along = vx * beam.direction.x() + vy * beam.direction.y();
+      const double lateral = vx * beam.across.x() + vy * beam.across.y();
+      judge(key, along, along > 0.0 ? lateral * lateral + dz * dz : vx * vx + vy * vy + dz * dz);
+    };
+    // A voxel the axis leaves at distance s from the origin has its centre at most s +
+    // half_diagonal along the beam, and it is on the axis: closer than pure_free_until that is
+    // the free valley without evaluating the model (most voxels of a scan).
+    const double free_exit = (pure_free_until - half_diagonal - 1e-6) / length;
+    auto on_axis_visit = [&](const octomap::OcTreeKey& key, double t_exit) __attribute__((always_inline)) {
+      if (t_exit < free_exit) {
+        sink(key, l_free);
+      } else {
+        evaluate(key);
+      }
+    };
+    auto off_axis_visit = [&](const octomap::OcTreeKey& key, double) __attribute__((always_inline)) {
+      evaluate(key);
+    };
+    auto on_axis_level_visit = [&](const octomap::OcTreeKey& key, double t_exit) __attribute__((always_inline)) {
+      if (t_exit < free_exit) {
+        sink(key, l_free);
+      } else {
+        evaluate_level(key);
+      }
+    };
+    auto off_axis_level_visit = [&](const octomap::OcTreeKey& key, double) __attribute__((always_inline)) {
+      evaluate_level(key);
+    };
+    // Scan beams of a level scan: the axis and `across` lie in the plane.
+    const bool level_beam = beam.direction.z() == 0.0 && beam.across.z() == 0.0 && !beam.across.isZero();
+    fanOf(beam, tan_half, &fan_);
+    for (const Ray& ray : fan_) {
+      if (ray.start >= length) continue;
+      const Eigen::Vector3d from = origin + ray.direction * ray.start;
+      const Eigen::Vector3d far = origin + ray.direction * length;
+      octomap::OcTreeKey from_key = origin_key, far_key;
+      if (ray.start > 0.0 && !coordToKeySafe(*tree_, from.x(), from.y(), from.z(), &from_key)) continue;
+      if (!coordToKeySafe(*tree_, far.x(), far.y(), far.z(), &far_key)) continue;  // checked in the first pass
+      if (level_beam) {  // its rays stay in the origin's layer: from.z == far.z exactly
+        if (ray.axis) {
+          traverseLevel(*tree_, from, far, from_key, far_key, on_axis_level_visit);
+        } else {
+          traverseLevel(*tree_, from, far, from_key, far_key, off_axis_level_visit);
+        }
+      } else if (ray.axis) {
+        traverseVoxels(*tree_, from, far, from_key, far_key, on_axis_visit);
+      } else {
+        traverseVoxels(*tree_, from, far, from_key, far_key, off_axis_visit);
+      }
+    }
   }
 }
 
@@ -183,66 +372,15 @@ std::vector<KeyUpdate> ScanInserter::computeUpdates(const Eigen::Vector3d& origi
   std::vector<KeyUpdate> updates;
   octomap::OcTreeKey origin_key;
   if (!coordToKeySafe(*tree_, origin.x(), origin.y(), origin.z(), &origin_key)) return updates;
-  const double tan_half = std::tan(half_angle);
-
-  // First pass: the key box of all ray ends (rays are straight, so the box of the origin and the
-  // ends holds every voxel they cross). Beams leaving the octree's key range are dropped.
-  std::vector<char> usable(beams.size(), 0);
-  std::vector<Eigen::Vector3d> fan;
-  KeyBox box;
-  box.add(origin_key);
-  for (std::size_t b = 0; b < beams.size(); ++b) {
-    fanOf(beams[b], tan_half, &fan);
-    KeyBox beam_box;
-    bool inside = true;
-    for (const Eigen::Vector3d& dir : fan) {  // the arc of ends bulges past the outer rays' chord
-      const Eigen::Vector3d end = origin + dir * traceLength(beams[b]);
-      octomap::OcTreeKey key;
-      inside = inside && coordToKeySafe(*tree_, end.x(), end.y(), end.z(), &key);
-      if (inside) beam_box.add(key);
-    }
-    if (!inside) continue;
-    usable[b] = 1;
-    box.add(beam_box);
-  }
+  std::vector<char> usable;
+  const KeyBox box = prepareBeams(origin, origin_key, beams, std::tan(half_angle), &usable);
   prepareWindow(box.min, box.max);
   slots_.clear();
   sparse_.clear();
-
-  // A voxel's centre is at most half its diagonal from any point inside it.
-  const double half_diagonal = 0.5 * std::sqrt(3.0) * tree_->getResolution();
-  const double half_diagonal_sq = half_diagonal * half_diagonal;
-  for (std::size_t b = 0; b < beams.size(); ++b) {
-    if (!usable[b]) continue;
-    const Beam& beam = beams[b];
-    // On the axis, closer than this the model is exactly the free valley (see hitUpdate).
-    const double pure_free_until = beam.length - model_.pureFreeMargin(beam.length);
-    const float l_free = model_.logOddsFree();
-    auto visit = [&](const octomap::OcTreeKey& key) __attribute__((always_inline)) {
-      const octomap::point3d c = tree_->keyToCoord(key);
-      const Eigen::Vector3d v(c.x() - origin.x(), c.y() - origin.y(), c.z() - origin.z());
-      const double along = std::max(0.0, v.dot(beam.direction));
-      const double lateral_sq = (v - along * beam.direction).squaredNorm();
-      // Voxels the axis passes through (most of them) are squarely inside the cone.
-      const bool on_axis = lateral_sq <= half_diagonal_sq || along <= 0.0;
-      if (on_axis && along < pure_free_until) {
-        accumulate(key, l_free);
-        return;
-      }
-      const double off_axis = on_axis ? 0.0 : std::atan((std::sqrt(lateral_sq) - half_diagonal) / along);
-      const float value = beam.hit ? model_.hitUpdate(beam.length, along, off_axis, half_angle)
-                                   : model_.noReturnUpdate(beam.length, along, off_axis, half_angle);
-      if (value != 0.0f) accumulate(key, value);
-    };
-    fanOf(beam, tan_half, &fan);
-    for (const Eigen::Vector3d& dir : fan) {
-      const Eigen::Vector3d far = origin + dir * traceLength(beam);
-      octomap::OcTreeKey far_key;
-      if (!coordToKeySafe(*tree_, far.x(), far.y(), far.z(), &far_key)) continue;  // checked in the first pass
-      traverseVoxels(*tree_, origin, far, origin_key, far_key, visit);
-    }
-  }
-
+  traceBeams(origin, origin_key, beams, usable, half_angle,
+             [this](const octomap::OcTreeKey& key, float value) __attribute__((always_inline)) {
+               accumulate(key, value);
+             });
   updates.reserve(slots_.size());
   for (const Slot& slot : slots_) {
     const float value = slot.positive > 0.0f ? slot.positive : slot.negative;
@@ -252,14 +390,54 @@ std::vector<KeyUpdate> ScanInserter::computeUpdates(const Eigen::Vector3d& origi
   return updates;
 }
 
+void ScanInserter::traceEvidence(const Scan& scan, const std::function<void(const octomap::OcTreeKey&, float)>& fn) {
+  if (!validateScanHeader(scan).empty()) return;
+  const std::vector<Beam> beams = beamsOf(scan, nullptr);
+  const Eigen::Vector3d origin = scan.sensor_pose.translation();
+  octomap::OcTreeKey origin_key;
+  if (!coordToKeySafe(*tree_, origin.x(), origin.y(), origin.z(), &origin_key)) return;
+  const double half_angle = model_.halfAngleFor(scan.angle_increment);
+  std::vector<char> usable;
+  prepareBeams(origin, origin_key, beams, std::tan(half_angle), &usable);
+  traceBeams(origin, origin_key, beams, usable, half_angle, fn);
+}
+
+// A level scan (the sensor's x-y plane horizontal) stays in the layer of its origin: every beam,
+// fanned ray and end has the origin's z exactly. Its evidence goes straight into the layer cache.
+InsertResult ScanInserter::insertLevel(const Eigen::Vector3d& origin, const std::vector<Beam>& beams,
+                                       double half_angle, InsertResult result) {
+  octomap::OcTreeKey origin_key;
+  if (!coordToKeySafe(*tree_, origin.x(), origin.y(), origin.z(), &origin_key)) return result;
+  std::vector<char> usable;
+  const KeyBox box = prepareBeams(origin, origin_key, beams, std::tan(half_angle), &usable);
+  LayerCache::Layer& layer = cache_.layer(origin_key[2]);
+  cache_.cover(&layer, box.min[0], box.min[1], box.max[0], box.max[1]);
+  cache_.beginScan();
+  traceBeams(origin, origin_key, beams, usable, half_angle,
+             [this, &layer](const octomap::OcTreeKey& key, float value) __attribute__((always_inline)) {
+               cache_.add(layer, key[0], key[1], value);  // a level scan's keys are all in its layer
+             });
+  result.voxels_updated = cache_.endScan(&result.updated_keys);
+  for (const octomap::OcTreeKey& k : result.updated_keys) result.touched.add(k);
+  return result;
+}
+
+// Updates of voxels in cached layers go through the cache (which holds their current values),
+// the rest straight into the octree.
 InsertResult ScanInserter::apply(std::vector<KeyUpdate> updates, InsertResult result) {
-  result.updated_keys.reserve(updates.size());
+  result.voxels_updated = updates.size();
+  std::vector<KeyUpdate> direct;
+  direct.reserve(updates.size());
   for (const KeyUpdate& u : updates) {
+    if (cache_.findLayer(u.key[2])) {
+      if (!cache_.apply(u.key, u.log_odds)) continue;
+    } else {
+      direct.push_back(u);
+    }
     result.touched.add(u.key);
     result.updated_keys.push_back(u.key);
   }
-  applyUpdatesInTreeOrder(tree_, &updates);
-  result.voxels_updated = updates.size();
+  applyUpdatesInTreeOrder(tree_, &direct);
   return result;
 }
 

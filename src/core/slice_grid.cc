@@ -17,8 +17,8 @@ std::uint64_t nextGeometry() {
 
 }  // namespace
 
-SliceGrid::SliceGrid(const octomap::OcTree& tree, const SliceOptions& options)
-    : tree_(tree), options_(options), resolution_(tree.getResolution()) {
+SliceGrid::SliceGrid(const octomap::OcTree& tree, const SliceOptions& options, const LayerCache* cache)
+    : tree_(tree), cache_(cache), options_(options), resolution_(tree.getResolution()) {
   if (!(options.min_z <= options.max_z)) throw std::invalid_argument("slice: min_z must be <= max_z");
   octomap::OcTreeKey lo, hi;
   if (!coordToKeySafe(tree, 0, 0, options.min_z, &lo) || !coordToKeySafe(tree, 0, 0, options.max_z, &hi)) {
@@ -61,24 +61,49 @@ void SliceGrid::clear() {
   data_.clear();
 }
 
-// One descent to the deepest node holding the whole band of this column, then a few levels down
-// per layer: 5 layers cost ~1.5 root-to-leaf walks instead of 5.
-std::int8_t SliceGrid::columnValue(std::uint16_t kx, std::uint16_t ky) const {
+// One voxel's value from the tree: a descent from `top`, the deepest node holding the column's band.
+const octomap::OcTreeNode* SliceGrid::bandVoxel(const octomap::OcTreeNode* top, std::uint16_t kx, std::uint16_t ky,
+                                                unsigned kz) const {
   const unsigned depth = tree_.getTreeDepth();
+  const octomap::OcTreeKey key(kx, ky, static_cast<std::uint16_t>(kz));
+  const octomap::OcTreeNode* node = top;
+  for (unsigned d = band_common_depth_; d < depth && node && tree_.nodeHasChildren(node); ++d) {
+    const unsigned pos = octomap::computeChildIdx(key, static_cast<int>(depth - 1 - d));
+    node = tree_.nodeChildExists(node, pos) ? tree_.getNodeChild(node, pos) : nullptr;
+  }
+  return node;
+}
+
+// One descent to the deepest node holding the whole band of this column, then a few levels down
+// per layer: 5 layers cost ~1.5 root-to-leaf walks instead of 5. Voxels of cached layers are read
+// from the cache, which the tree may lag behind.
+std::int8_t SliceGrid::columnValue(std::uint16_t kx, std::uint16_t ky) const {
   const octomap::OcTreeNode* top = tree_.search(octomap::OcTreeKey(kx, ky, band_lo_), band_common_depth_);
-  if (!top) return kUnknownCell;
   double best = -1.0;
-  if (!tree_.nodeHasChildren(top)) {
-    best = top->getOccupancy();  // a leaf (possibly pruned) covering the whole band
+  if (!cache_ || cache_->empty()) {
+    if (!top) return kUnknownCell;
+    if (!tree_.nodeHasChildren(top)) {
+      best = top->getOccupancy();  // a leaf (possibly pruned) covering the whole band
+    } else {
+      for (unsigned kz = band_lo_; kz <= band_hi_; ++kz) {
+        if (const octomap::OcTreeNode* node = bandVoxel(top, kx, ky, kz)) best = std::max(best, node->getOccupancy());
+      }
+    }
   } else {
     for (unsigned kz = band_lo_; kz <= band_hi_; ++kz) {
-      const octomap::OcTreeKey key(kx, ky, static_cast<std::uint16_t>(kz));
-      const octomap::OcTreeNode* node = top;
-      for (unsigned d = band_common_depth_; d < depth && node && tree_.nodeHasChildren(node); ++d) {
-        const unsigned pos = octomap::computeChildIdx(key, static_cast<int>(depth - 1 - d));
-        node = tree_.nodeChildExists(node, pos) ? tree_.getNodeChild(node, pos) : nullptr;
+      float log_odds = 0.0f;
+      switch (cache_->lookup(kx, ky, kz, &log_odds)) {
+        case LayerCache::Lookup::kKnown:
+          best = std::max(best, octomap::probability(log_odds));
+          break;
+        case LayerCache::Lookup::kUnknown:
+          break;
+        case LayerCache::Lookup::kNotCached:
+          if (const octomap::OcTreeNode* node = top ? bandVoxel(top, kx, ky, kz) : nullptr) {
+            best = std::max(best, node->getOccupancy());
+          }
+          break;
       }
-      if (node) best = std::max(best, node->getOccupancy());
     }
   }
   if (best < 0.0) return kUnknownCell;

@@ -1,0 +1,173 @@
+#include "octo_slice_mapper/layer_cache.h"
+
+#include <algorithm>
+
+namespace octo_slice_mapper {
+
+LayerCache::LayerCache(octomap::OcTree* tree) : tree_(tree) {}
+
+LayerCache::Layer& LayerCache::layer(std::uint16_t z) {
+  for (const auto& l : layers_) {
+    if (l->z == z) return *l;
+  }
+  layers_.push_back(std::make_unique<Layer>());
+  layers_.back()->z = z;
+  return *layers_.back();
+}
+
+const LayerCache::Layer* LayerCache::findLayer(std::uint16_t z) const {
+  for (const auto& l : layers_) {
+    if (l->z == z) return l.get();
+  }
+  return nullptr;
+}
+
+// Grows by at least half the current size per side, so a map growing at its edge re-allocates
+// the directory O(log n) times. Tiles themselves never move (Refs point into them).
+void LayerCache::cover(Layer* l, unsigned kx0, unsigned ky0, unsigned kx1, unsigned ky1) {
+  const int tx0 = int(kx0 >> kTileBits), ty0 = int(ky0 >> kTileBits);
+  const int tx1 = int(kx1 >> kTileBits), ty1 = int(ky1 >> kTileBits);
+  if (l->ntx > 0 && tx0 >= l->tx0 && ty0 >= l->ty0 && tx1 < l->tx0 + l->ntx && ty1 < l->ty0 + l->nty) return;
+  int nx0 = tx0, ny0 = ty0, nx1 = tx1, ny1 = ty1;
+  if (l->ntx > 0) {
+    const int mx = std::max(1, l->ntx / 2), my = std::max(1, l->nty / 2);
+    nx0 = std::min(nx0 < l->tx0 ? nx0 - mx : l->tx0, nx0);
+    ny0 = std::min(ny0 < l->ty0 ? ny0 - my : l->ty0, ny0);
+    const int ox1 = l->tx0 + l->ntx - 1, oy1 = l->ty0 + l->nty - 1;
+    nx1 = std::max(nx1 > ox1 ? nx1 + mx : ox1, nx1);
+    ny1 = std::max(ny1 > oy1 ? ny1 + my : oy1, ny1);
+  }
+  constexpr int kMaxTile = (0xFFFF >> kTileBits);
+  nx0 = std::max(nx0, 0), ny0 = std::max(ny0, 0);
+  nx1 = std::min(nx1, kMaxTile), ny1 = std::min(ny1, kMaxTile);
+  const int w = nx1 - nx0 + 1, h = ny1 - ny0 + 1;
+  std::vector<std::unique_ptr<Tile>> grown(std::size_t(w) * h);
+  for (int j = 0; j < l->nty; ++j) {
+    for (int i = 0; i < l->ntx; ++i) {
+      grown[std::size_t(l->ty0 + j - ny0) * w + (l->tx0 + i - nx0)] = std::move(l->tiles[std::size_t(j) * l->ntx + i]);
+    }
+  }
+  l->tiles.swap(grown);
+  l->tx0 = nx0, l->ty0 = ny0, l->ntx = w, l->nty = h;
+}
+
+void LayerCache::beginScan() {
+  touched_.clear();
+  if (++stamp_ == 0) {  // wrapped: old stamps could look current
+    for (const auto& l : layers_) {
+      for (const auto& t : l->tiles) {
+        if (t) {
+          for (Cell& c : t->cells) c.stamp = 0;
+        }
+      }
+    }
+    stamp_ = 1;
+  }
+}
+
+// The arithmetic of OccupancyOcTreeBase::updateNode on one voxel: a voxel the octree does not
+// hold starts at 0; one already at the bound the update pushes towards is left alone; else the
+// update is added in float and the sum clamped.
+bool LayerCache::applyTo(const Ref& ref, float update) {
+  std::uint8_t& state = *ref.state;
+  if ((state & kLoadMask) == kUnloaded) {
+    const octomap::OcTreeNode* node = tree_->search(ref.key);
+    if (node) ref.cell->value = node->getLogOdds();
+    state = static_cast<std::uint8_t>((state & ~kLoadMask) | (node ? kKnown : kUnknown));
+  }
+  const float lo = tree_->getClampingThresMinLog(), hi = tree_->getClampingThresMaxLog();
+  float value = 0.0f;
+  if ((state & kLoadMask) == kKnown) {
+    const float old = ref.cell->value;
+    if ((update >= 0.0f && old >= hi) || (update <= 0.0f && old <= lo)) return false;
+    value = old;
+  }
+  value += update;
+  if (value < lo) {
+    value = lo;
+  } else if (value > hi) {
+    value = hi;
+  }
+  if ((state & kLoadMask) == kKnown && value == ref.cell->value) return false;
+  ref.cell->value = value;
+  if (!(state & kDirty)) dirty_.push_back(ref);
+  state = kKnown | kDirty;
+  return true;
+}
+
+std::size_t LayerCache::endScan(std::vector<octomap::OcTreeKey>* changed) {
+  std::size_t updates = 0;
+  for (const Ref& ref : touched_) {
+    const float update = ref.cell->pos > 0.0f ? ref.cell->pos : ref.cell->neg;
+    if (update == 0.0f) continue;
+    ++updates;
+    if (applyTo(ref, update) && changed) changed->push_back(ref.key);
+  }
+  touched_.clear();
+  return updates;
+}
+
+LayerCache::Cell* LayerCache::cellFor(const octomap::OcTreeKey& key, std::uint8_t** state) {
+  Layer& l = layer(key[2]);
+  cover(&l, key[0], key[1], key[0], key[1]);
+  std::unique_ptr<Tile>& slot =
+      l.tiles[std::size_t(int(key[1] >> kTileBits) - l.ty0) * l.ntx + (int(key[0] >> kTileBits) - l.tx0)];
+  if (!slot) slot = std::make_unique<Tile>();
+  const unsigned index = ((key[1] & kTileMask) << kTileBits) | (key[0] & kTileMask);
+  *state = &slot->state[index];
+  return &slot->cells[index];
+}
+
+bool LayerCache::apply(const octomap::OcTreeKey& key, float update) {
+  std::uint8_t* state = nullptr;
+  Cell* cell = cellFor(key, &state);
+  return applyTo({cell, state, key}, update);
+}
+
+LayerCache::Lookup LayerCache::lookup(unsigned kx, unsigned ky, unsigned kz, float* value) const {
+  const Layer* l = findLayer(static_cast<std::uint16_t>(kz));
+  if (!l || !l->covers(kx, ky)) return Lookup::kNotCached;
+  const Tile* tile =
+      l->tiles[std::size_t(int(ky >> kTileBits) - l->ty0) * l->ntx + (int(kx >> kTileBits) - l->tx0)].get();
+  if (!tile) return Lookup::kNotCached;
+  const unsigned index = ((ky & kTileMask) << kTileBits) | (kx & kTileMask);
+  switch (tile->state[index] & kLoadMask) {
+    case kKnown:
+      *value = tile->cells[index].value;
+      return Lookup::kKnown;
+    case kUnknown:
+      return Lookup::kUnknown;
+    default:
+      return Lookup::kNotCached;
+  }
+}
+
+void LayerCache::flush() {
+  if (dirty_.empty()) return;
+  flush_buffer_.clear();
+  flush_buffer_.reserve(dirty_.size());
+  for (const Ref& ref : dirty_) {
+    flush_buffer_.push_back({ref.key, ref.cell->value});
+    *ref.state = static_cast<std::uint8_t>(*ref.state & ~kDirty);
+  }
+  dirty_.clear();
+  setValuesInTreeOrder(tree_, &flush_buffer_);
+}
+
+void LayerCache::clear() {
+  layers_.clear();
+  touched_.clear();
+  dirty_.clear();
+}
+
+std::size_t LayerCache::memoryBytes() const {
+  std::size_t bytes = sizeof(*this) + (touched_.capacity() + dirty_.capacity()) * sizeof(Ref) +
+                      flush_buffer_.capacity() * sizeof(KeyUpdate);
+  for (const auto& l : layers_) {
+    bytes += sizeof(Layer) + l->tiles.capacity() * sizeof(std::unique_ptr<Tile>);
+    for (const auto& t : l->tiles) bytes += t ? sizeof(Tile) : 0;
+  }
+  return bytes;
+}
+
+}  // namespace octo_slice_mapper
