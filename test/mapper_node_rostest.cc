@@ -10,8 +10,10 @@
 #include <sys/stat.h>
 #include <tf2_ros/static_transform_broadcaster.h>
 
+#include <atomic>
 #include <cmath>
 #include <functional>
+#include <thread>
 #include <map>
 #include <limits>
 
@@ -288,6 +290,36 @@ TEST_F(MapperNodeTest, EachScanIsFollowedByAnUpdateOfWhatItTouched) {
   ASSERT_TRUE(i >= 0 && j >= 0 && i < int(u->width) && j < int(u->height)) << "the wall lies outside the update";
   EXPECT_GT(u->data[std::size_t(j) * u->width + i], 50);
   EXPECT_LT(u->data.size(), map_->data.size()) << "an update covers what the scan touched, not the whole map";
+}
+
+// Saving and the global pass work on a snapshot: while they run with scans arriving every 50 ms,
+// no scan waits for the map longer than one scan period, and the services hold it less than that.
+TEST_F(MapperNodeTest, SaveAndOptimizeDoNotStallScanInsertion) {
+  publishWall(2.0, 10);
+  std::atomic<bool> done{false};
+  std::thread feeder([&] {
+    for (int k = 0; !done; ++k) {
+      const double d = 1.5 + 0.05 * (k % 20);  // the wall moves: every scan changes the map
+      scan_pub_.publish(scan([d](double a) { return wallAt(d, a); }));
+      ros::WallDuration(0.05).sleep();
+    }
+  });
+  ASSERT_TRUE(ros::service::waitForService("mapper_node/save_map", 10000));
+  ASSERT_TRUE(ros::service::waitForService("mapper_node/optimize", 10000));
+  for (int round = 0; round < 3; ++round) {
+    octo_slice_mapper::SaveMap save;
+    save.request.prefix = "rostest_busy";
+    EXPECT_TRUE(ros::service::call("mapper_node/save_map", save) && save.response.success) << save.response.message;
+    octo_slice_mapper::Optimize optimize;
+    EXPECT_TRUE(ros::service::call("mapper_node/optimize", optimize) && optimize.response.success)
+        << optimize.response.message;
+  }
+  done = true;
+  feeder.join();
+  diagnostics_.clear();  // wait for a report made after the calls
+  ASSERT_TRUE(waitFor([this] { return diagnostic("longest_service_lock_ms") > 0.0; }, 5.0)) << "no diagnostics";
+  EXPECT_LT(diagnostic("longest_service_lock_ms"), 50.0);
+  EXPECT_LT(diagnostic("max_insert_wait_ms"), 50.0);
 }
 
 }  // namespace

@@ -32,7 +32,10 @@ Mapper* OptimizedMapTest::mapper_ = nullptr;
 GridImage* OptimizedMapTest::truth_ = nullptr;
 
 TEST_F(OptimizedMapTest, MapperKeepsItsScansForTheGlobalPass) {
-  EXPECT_EQ(mapper_->scanStore().scans().size(), mapper_->stats().scans_inserted);
+  // All but the ones taken where a kept scan was taken (the robot standing still).
+  EXPECT_EQ(mapper_->scanStore().scans().size() + mapper_->scanStore().skippedAsRevisit(),
+            mapper_->stats().scans_inserted);
+  EXPECT_GT(mapper_->scanStore().scans().size(), mapper_->stats().scans_inserted / 2);
   EXPECT_GT(mapper_->scanStore().memoryBytes(), 1000000u);
 }
 

@@ -16,12 +16,12 @@ Scan scanAt(double x, double yaw, float range = 2.0f) {
 
 TEST(ScanStore, KeepsEveryScanByDefaultAndRoundTripsThem) {
   ScanStore store;
-  for (int k = 0; k < 10; ++k) EXPECT_TRUE(store.add(scanAt(0.0, 0.0, 1.0f + k)));
+  for (int k = 0; k < 10; ++k) EXPECT_TRUE(store.add(scanAt(0.05 * k, 0.0, 1.0f + k)));
   ASSERT_EQ(store.scans().size(), 10u);
   const Scan back = store.scans()[3].toScan();
   EXPECT_FLOAT_EQ(back.ranges[0], 4.0f);
   EXPECT_FLOAT_EQ(back.angle_increment, 0.01f);
-  EXPECT_TRUE(back.sensor_pose.isApprox(laserPoseOnRobot(0.0, 0.0, 0.0), 1e-6));
+  EXPECT_TRUE(back.sensor_pose.isApprox(laserPoseOnRobot(0.15, 0.0, 0.0), 1e-6));
   // 201 floats per scan plus a small header: compact.
   EXPECT_GE(store.memoryBytes(), 10 * 201 * sizeof(float));
   EXPECT_LE(store.memoryBytes(), 10 * (201 * sizeof(float) + 200) + 4096);
@@ -39,6 +39,24 @@ TEST(ScanStore, KeyframesByDistanceOrRotation) {
   EXPECT_TRUE(store.add(scanAt(0.6, 0.4))) << "turned far enough";
   EXPECT_EQ(store.scans().size(), 3u);
   EXPECT_EQ(store.skippedByKeyframe(), 2u);
+}
+
+// A robot standing still, or a bag replayed in a loop, adds nothing once its places are kept:
+// the store grows with the explored area, not with time.
+TEST(ScanStore, SkipsScansFromPlacesAlreadyKept) {
+  ScanStore store;
+  for (int loop = 0; loop < 5; ++loop) {
+    for (int k = 0; k < 20; ++k) store.add(scanAt(0.1 * k, 0.01 * k, 1.0f + loop));
+  }
+  EXPECT_EQ(store.scans().size(), 20u);
+  EXPECT_EQ(store.skippedAsRevisit(), 80u);
+  EXPECT_FLOAT_EQ(store.scans().back().ranges[0], 1.0f) << "the first visit is the one kept";
+  EXPECT_TRUE(store.add(scanAt(0.0, 0.5))) << "same place, other heading: kept";
+  EXPECT_TRUE(store.add(scanAt(0.03, 0.0))) << "a step away: kept";
+  ScanStoreOptions off;
+  off.revisit_cell = 0.0;
+  ScanStore keep_all(off);
+  for (int k = 0; k < 10; ++k) EXPECT_TRUE(keep_all.add(scanAt(0.0, 0.0)));
 }
 
 TEST(ScanStore, BoundedByThinningUniformly) {

@@ -67,13 +67,15 @@ class LayerCache {
     if (!slot) slot = std::make_unique<Tile>();
     const unsigned index = ((ky & kTileMask) << kTileBits) | (kx & kTileMask);
     Cell& cell = slot->cells[index];
-    if (cell.stamp != stamp_) {
-      cell.stamp = stamp_;
-      cell.pos = cell.neg = 0.0f;
-      touched_.push_back({&cell, &slot->state[index], octomap::OcTreeKey(kx, ky, layer.z)});
-    }
-    if (value > cell.pos) cell.pos = value;
-    if (value < cell.neg) cell.neg = value;
+    // Branch-free: whether a beam already reached this voxel in this scan is unpredictable.
+    const bool fresh = cell.stamp != stamp_;
+    cell.stamp = stamp_;
+    const float pos = fresh ? 0.0f : cell.pos, neg = fresh ? 0.0f : cell.neg;
+    cell.pos = value > pos ? value : pos;
+    cell.neg = value < neg ? value : neg;
+    if (touched_count_ == touched_.size()) touched_.resize(2 * touched_.size() + 1024);
+    touched_[touched_count_] = {&cell, &slot->state[index], octomap::OcTreeKey(kx, ky, layer.z)};
+    touched_count_ += fresh;
   }
   // Applies the scan's combined evidence. Appends the keys whose log-odds changed to `changed`
   // and returns how many voxels received a non-zero update.
@@ -97,8 +99,8 @@ class LayerCache {
 
  private:
   struct Ref {
-    Cell* cell;
-    std::uint8_t* state;
+    Cell* cell = nullptr;
+    std::uint8_t* state = nullptr;
     octomap::OcTreeKey key;
   };
   Cell* cellFor(const octomap::OcTreeKey& key, std::uint8_t** state);
@@ -107,7 +109,8 @@ class LayerCache {
   octomap::OcTree* tree_;
   std::vector<std::unique_ptr<Layer>> layers_;
   std::uint32_t stamp_ = 0;
-  std::vector<Ref> touched_;  // voxels with evidence in the current scan
+  std::vector<Ref> touched_;  // voxels with evidence in the current scan: the first touched_count_
+  std::size_t touched_count_ = 0;
   std::vector<Ref> dirty_;    // voxels the octree lags behind
   std::vector<KeyUpdate> flush_buffer_;
 };

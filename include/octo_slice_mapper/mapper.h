@@ -67,6 +67,8 @@ class Mapper {
 
   // The octree, brought up to date with the insertion cache first.
   const octomap::OcTree& tree() const;
+  // The octree as of the last flush (cheap; lags behind the cache).
+  const octomap::OcTree& flushedTree() const { return *tree_; }
   const SliceGrid& slice() const { return *slice_; }
   const MapperStats& stats() const { return stats_; }
   const MapperOptions& options() const { return options_; }

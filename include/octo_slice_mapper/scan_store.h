@@ -3,6 +3,7 @@
 
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <unordered_set>
 #include <vector>
 
 #include "octo_slice_mapper/scan.h"
@@ -24,6 +25,12 @@ struct ScanStoreOptions {
   // kept one. The defaults keep every scan (the shared datasets are already thinned).
   double min_distance = 0.0;
   double min_rotation = 0.0;
+  // Skip a scan taken where a kept one was taken: laser position in the same revisit_cell x
+  // revisit_cell square and heading in the same revisit_angle sector. A robot standing still, or
+  // a bag replayed in a loop, then stops adding scans, so the store grows with the explored
+  // area, not with time. 0 disables it.
+  double revisit_cell = 0.02;   // m
+  double revisit_angle = 0.02;  // rad
   // At most this many scans; when full, every second scan is dropped (uniform thinning), so the
   // store keeps covering the whole run. 20000 scans of 1081 beams are ~90 MB.
   std::size_t max_scans = 20000;
@@ -39,12 +46,16 @@ class ScanStore {
   const std::vector<StoredScan>& scans() const { return scans_; }
   std::size_t memoryBytes() const;
   std::uint64_t skippedByKeyframe() const { return skipped_; }
+  std::uint64_t skippedAsRevisit() const { return revisits_; }
   std::uint64_t droppedWhenFull() const { return dropped_; }
 
  private:
+  std::uint64_t revisitBin(const Eigen::Vector3f& origin, const Eigen::Quaternionf& rotation) const;
+
   ScanStoreOptions options_;
   std::vector<StoredScan> scans_;
-  std::uint64_t skipped_ = 0, dropped_ = 0;
+  std::unordered_set<std::uint64_t> visited_;  // revisit bins of the kept scans
+  std::uint64_t skipped_ = 0, dropped_ = 0, revisits_ = 0;
 };
 
 }  // namespace octo_slice_mapper

@@ -52,7 +52,7 @@ void LayerCache::cover(Layer* l, unsigned kx0, unsigned ky0, unsigned kx1, unsig
 }
 
 void LayerCache::beginScan() {
-  touched_.clear();
+  touched_count_ = 0;
   if (++stamp_ == 0) {  // wrapped: old stamps could look current
     for (const auto& l : layers_) {
       for (const auto& t : l->tiles) {
@@ -97,13 +97,14 @@ bool LayerCache::applyTo(const Ref& ref, float update) {
 
 std::size_t LayerCache::endScan(std::vector<octomap::OcTreeKey>* changed) {
   std::size_t updates = 0;
-  for (const Ref& ref : touched_) {
+  for (std::size_t i = 0; i < touched_count_; ++i) {
+    const Ref& ref = touched_[i];
     const float update = ref.cell->pos > 0.0f ? ref.cell->pos : ref.cell->neg;
     if (update == 0.0f) continue;
     ++updates;
     if (applyTo(ref, update) && changed) changed->push_back(ref.key);
   }
-  touched_.clear();
+  touched_count_ = 0;
   return updates;
 }
 
@@ -156,7 +157,7 @@ void LayerCache::flush() {
 
 void LayerCache::clear() {
   layers_.clear();
-  touched_.clear();
+  touched_count_ = 0;
   dirty_.clear();
 }
 

@@ -1,5 +1,7 @@
 #include "octo_slice_mapper/scan_store.h"
 
+#include <cmath>
+
 namespace octo_slice_mapper {
 
 Scan StoredScan::toScan() const {
@@ -15,9 +17,25 @@ Scan StoredScan::toScan() const {
   return scan;
 }
 
+// Position and heading (of the laser's x axis, in the map's x-y plane) quantised into one key.
+std::uint64_t ScanStore::revisitBin(const Eigen::Vector3f& origin, const Eigen::Quaternionf& rotation) const {
+  const Eigen::Vector3f axis = rotation * Eigen::Vector3f::UnitX();
+  auto bin = [](double v, double size) {
+    return static_cast<std::uint64_t>(static_cast<std::int64_t>(std::floor(v / size)) & 0x1FFFFF);
+  };
+  return bin(origin.x(), options_.revisit_cell) | bin(origin.y(), options_.revisit_cell) << 21 |
+         bin(std::atan2(axis.y(), axis.x()) + M_PI, options_.revisit_angle) << 42;
+}
+
 bool ScanStore::add(const Scan& scan) {
   const Eigen::Vector3f origin = scan.sensor_pose.translation().cast<float>();
   const Eigen::Quaternionf rotation(scan.sensor_pose.linear().cast<float>());
+  const bool revisits = options_.revisit_cell > 0.0 && options_.revisit_angle > 0.0 && origin.allFinite();
+  const std::uint64_t bin = revisits ? revisitBin(origin, rotation) : 0;
+  if (revisits && visited_.count(bin)) {
+    ++revisits_;
+    return false;
+  }
   if (!scans_.empty() && (options_.min_distance > 0.0 || options_.min_rotation > 0.0)) {
     const StoredScan& last = scans_.back();
     const bool moved = (origin - last.origin).norm() >= options_.min_distance;
@@ -34,7 +52,12 @@ bool ScanStore::add(const Scan& scan) {
     }
     dropped_ += scans_.size() - kept;
     scans_.resize(kept);
+    visited_.clear();  // places of dropped scans may be kept again
+    if (revisits) {
+      for (const StoredScan& s : scans_) visited_.insert(revisitBin(s.origin, s.rotation));
+    }
   }
+  if (revisits) visited_.insert(bin);
   scans_.push_back({origin, rotation, scan.angle_min, scan.angle_increment, scan.range_min, scan.range_max, scan.ranges});
   scans_.back().ranges.shrink_to_fit();
   return true;
@@ -42,11 +65,13 @@ bool ScanStore::add(const Scan& scan) {
 
 void ScanStore::clear() {
   scans_.clear();
-  skipped_ = dropped_ = 0;
+  visited_.clear();
+  skipped_ = dropped_ = revisits_ = 0;
 }
 
 std::size_t ScanStore::memoryBytes() const {
-  std::size_t bytes = sizeof(*this) + scans_.capacity() * sizeof(StoredScan);
+  std::size_t bytes = sizeof(*this) + scans_.capacity() * sizeof(StoredScan) +
+                      visited_.size() * (sizeof(std::uint64_t) + 2 * sizeof(void*));
   for (const StoredScan& s : scans_) bytes += s.ranges.capacity() * sizeof(float);
   return bytes;
 }

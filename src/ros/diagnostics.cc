@@ -33,9 +33,14 @@ diagnostic_msgs::DiagnosticArray toDiagnostics(const NodeCounters& c, std::uint6
   add("waiting_for_tf", std::to_string(c.waiting_for_tf));
   add("time_jumps_back", std::to_string(c.time_jumps_back));
   add("last_insert_ms", ms);
+  std::snprintf(ms, sizeof(ms), "%.3f", c.max_insert_wait_ms);
+  add("max_insert_wait_ms", ms);
+  std::snprintf(ms, sizeof(ms), "%.3f", c.longest_service_lock_ms);
+  add("longest_service_lock_ms", ms);
   add("voxels", std::to_string(c.voxels));
   add("known_cells", std::to_string(c.known_cells));
   add("kept_scans", std::to_string(c.kept_scans));
+  add("revisit_scans_not_kept", std::to_string(c.revisit_scans_not_kept));
   const std::uint64_t new_skips = c.skippedTotal() - std::min(skipped_before, c.skippedTotal());
   if (new_skips == 0) {
     status.level = diagnostic_msgs::DiagnosticStatus::OK;

@@ -18,7 +18,11 @@ struct NodeCounters {
   std::map<std::string, std::uint64_t> skipped;  // whole scans dropped, per reason
   std::uint64_t time_jumps_back = 0;
   double last_insert_ms = 0.0;
-  std::size_t voxels = 0, known_cells = 0, kept_scans = 0;
+  // Longest a scan waited for the map (held by a service taking its snapshot), and longest a
+  // service held it: both must stay under one scan period for saving not to stall mapping.
+  double max_insert_wait_ms = 0.0;
+  double longest_service_lock_ms = 0.0;
+  std::size_t voxels = 0, known_cells = 0, kept_scans = 0, revisit_scans_not_kept = 0;
   std::size_t waiting_for_tf = 0;  // in the tf filter's queue, within their timeout
   std::uint64_t skippedTotal() const;
 };

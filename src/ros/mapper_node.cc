@@ -192,6 +192,7 @@ void MapperNode::onScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
   bool send_update = false, send_full = false;
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    counters_.max_insert_wait_ms = std::max(counters_.max_insert_wait_ms, 1000.0 * (ros::WallTime::now() - start).toSec());
     result = mapper_.insert(scan);
     if (result.ok() && !result.touched.empty()) {
       // The grid grew or moved: an update can't describe that, the whole map goes out first.
@@ -272,9 +273,10 @@ void MapperNode::publishDiagnostics(const ros::TimerEvent&) {
   diagnostic_msgs::DiagnosticArray array;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    counters_.voxels = mapper_.tree().getNumLeafNodes();
+    counters_.voxels = mapper_.flushedTree().getNumLeafNodes();  // a flush here would stall the scans
     counters_.known_cells = mapper_.slice().knownCells();
     counters_.kept_scans = mapper_.scanStore().scans().size();
+    counters_.revisit_scans_not_kept = mapper_.scanStore().skippedAsRevisit();
     counters_.waiting_for_tf = waiting_scans_.waiting();  // this timer runs on the same queue as the scans
     array = toDiagnostics(counters_, skipped_at_last_report_, ros::this_node::getName(), ros::Time::now());
     skipped_at_last_report_ = counters_.skippedTotal();
@@ -294,7 +296,9 @@ bool MapperNode::onSaveMap(SaveMap::Request& req, SaveMap::Response& res) {
   MapSnapshot snapshot;
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    const ros::WallTime held = ros::WallTime::now();
     snapshot = mapper_.snapshot(/*with_scans=*/options_.optimize_on_save);
+    noteServiceLock(held);
   }
   res.success = saveMapSet(*snapshot.tree, snapshot.slice, prefix, &res.files, &error);
   std::string global_pass;
@@ -318,6 +322,11 @@ bool MapperNode::onSaveMap(SaveMap::Request& req, SaveMap::Response& res) {
   return true;
 }
 
+void MapperNode::noteServiceLock(const ros::WallTime& since) {
+  counters_.longest_service_lock_ms =
+      std::max(counters_.longest_service_lock_ms, 1000.0 * (ros::WallTime::now() - since).toSec());
+}
+
 OptimizedMap MapperNode::optimizeSnapshot(const MapSnapshot& snapshot, bool warm_start) {
   ROS_INFO("global pass over %zu scans (start: %s)", snapshot.scans.size(), warm_start ? "incremental map" : "all free");
   const OptimizedMap optimized = optimizeScans(
@@ -329,8 +338,10 @@ OptimizedMap MapperNode::optimizeSnapshot(const MapSnapshot& snapshot, bool warm
   if (ros::ok()) optimized_pub_.publish(grid);
   if (options_.write_optimized_into_map) {
     std::lock_guard<std::mutex> lock(mutex_);
+    const ros::WallTime held = ros::WallTime::now();
     mapper_.applyOptimized(optimized.grid);
     map_changed_ = true;
+    noteServiceLock(held);
   }
   return optimized;
 }
@@ -340,7 +351,9 @@ bool MapperNode::onOptimize(Optimize::Request& req, Optimize::Response& res) {
   MapSnapshot snapshot;
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    const ros::WallTime held = ros::WallTime::now();
     snapshot = mapper_.snapshot(/*with_scans=*/true);
+    noteServiceLock(held);
   }
   if (snapshot.scans.empty()) {
     res.success = false;

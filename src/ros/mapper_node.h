@@ -57,6 +57,7 @@ class MapperNode {
   bool onOptimize(Optimize::Request& req, Optimize::Response& res);
   // The global pass on a snapshot: publishes ~optimized_map and, if configured, writes the result
   // into the live map's slice band.
+  void noteServiceLock(const ros::WallTime& since);  // with mutex_ held
   OptimizedMap optimizeSnapshot(const MapSnapshot& snapshot, bool warm_start);
 
   ros::NodeHandle nh_, pnh_;

@@ -27,6 +27,8 @@ MapperOptions readMapperOptions(const ros::NodeHandle& pnh) {
   pnh.param("keep_scans", o.keep_scans, o.keep_scans);
   pnh.param("keyframe_min_distance", o.scan_store.min_distance, o.scan_store.min_distance);
   pnh.param("keyframe_min_rotation", o.scan_store.min_rotation, o.scan_store.min_rotation);
+  pnh.param("revisit_cell", o.scan_store.revisit_cell, o.scan_store.revisit_cell);
+  pnh.param("revisit_angle", o.scan_store.revisit_angle, o.scan_store.revisit_angle);
   int max_scans = static_cast<int>(o.scan_store.max_scans);
   pnh.param("max_kept_scans", max_scans, max_scans);
   o.scan_store.max_scans = static_cast<std::size_t>(std::max(0, max_scans));

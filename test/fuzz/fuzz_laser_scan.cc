@@ -40,5 +40,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   insert.max_range = 20.0;  // bounded work per input
   osm::ScanInserter inserter(&tree, insert);
   inserter.insert(scan);
+  inserter.flush();  // the cached layer into the octree as well
   return 0;
 }
