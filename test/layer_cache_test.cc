@@ -7,7 +7,9 @@
 
 #include <map>
 #include <random>
+#include <thread>
 
+#include "octo_slice_mapper/map_io.h"
 #include "octo_slice_mapper/mapper.h"
 #include "octo_slice_mapper/scan_inserter.h"
 #include "octo_slice_mapper/sim/session.h"
@@ -177,4 +179,50 @@ TEST(LayerCache, MapperSliceAndTreeSeeCachedValues) {
   }
   EXPECT_GT(known, 100);
   (void)incremental;
+}
+
+// A snapshot lends the octree: another thread reads it (here: saves it) while scans keep coming;
+// the lent tree does not change meanwhile, and afterwards the octree catches up with the scans.
+TEST(LayerCache, MapperLendsItsOctreeWhileScansGoOn) {
+  const sim::SimulatedSession session(sim::FloorPlan::office(), sim::SessionSpec::officeTour());
+  Mapper mapper;
+  std::mt19937 rng(2);
+  const auto times = session.scanTimes();
+  const std::size_t half = times.size() / 2;
+  for (std::size_t i = 0; i < half; i += 2) ASSERT_TRUE(mapper.insert(session.scanAt(times[i], &rng)).ok());
+
+  MapSnapshot snapshot = mapper.snapshot(/*with_scans=*/false);
+  const std::size_t lent_leaves = snapshot.tree->getNumLeafNodes();
+  octomap::OcTree lent_copy(*snapshot.tree);
+  char tmpl[] = "/tmp/osm_lend_XXXXXX";
+  const std::string dir = ::mkdtemp(tmpl);
+  bool saved = false;
+  std::string error;
+  std::thread saver([&] { saved = saveFullTree(*snapshot.tree, dir + "/lent.ot", &error); });
+  for (std::size_t i = half; i < times.size(); i += 2) {  // a tilted scan now and then: generic path
+    Scan scan = session.scanAt(times[i], &rng);
+    if (i % 20 == 0) scan.sensor_pose.rotate(Eigen::AngleAxisd(0.03, Eigen::Vector3d::UnitY()));
+    ASSERT_TRUE(mapper.insert(scan).ok());
+  }
+  saver.join();
+  ASSERT_TRUE(saved) << error;
+  EXPECT_EQ(snapshot.tree->getNumLeafNodes(), lent_leaves) << "the lent octree changed";
+  EXPECT_EQ(&mapper.tree(), snapshot.tree) << "while lent, tree() gives the lent state";
+  EXPECT_EQ(mapper.tree().getNumLeafNodes(), lent_leaves);
+  EXPECT_THROW(mapper.reset(), std::logic_error);
+  std::unique_ptr<octomap::OcTree> written = loadTree(dir + "/lent.ot", &error);
+  ASSERT_TRUE(written) << error;
+  expectSameTree(*written, lent_copy);
+
+  mapper.endSnapshot();
+  EXPECT_GT(mapper.tree().getNumLeafNodes(), lent_leaves) << "the second half reached the octree";
+  // ... exactly as if it had never been lent.
+  Mapper straight;
+  std::mt19937 rng2(2);
+  for (std::size_t i = 0; i < times.size(); i += 2) {
+    Scan scan = session.scanAt(times[i], &rng2);
+    if (i >= half && i % 20 == 0) scan.sensor_pose.rotate(Eigen::AngleAxisd(0.03, Eigen::Vector3d::UnitY()));
+    ASSERT_TRUE(straight.insert(scan).ok());
+  }
+  expectSameTree(mapper.tree(), straight.tree());
 }

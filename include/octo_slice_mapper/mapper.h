@@ -27,12 +27,16 @@ struct MapperOptions {
   ScanStoreOptions scan_store;
   // Its no_return_range and max_range are taken from `insert`, so both passes read a scan alike.
   GlobalOptimizerOptions optimizer;
+  // At most this many voxels may wait in the insertion cache: more are written into the octree
+  // after a scan, so that bringing the octree up to date for a reader stays short.
+  std::size_t max_unflushed_voxels = 20000;
 };
 
-// What saving and the global pass need, copied quickly (under the caller's lock) so that the
-// slow work can run on the copy while mapping goes on.
+// What saving and the global pass need, taken quickly (under the caller's lock) so that the slow
+// work can run while mapping goes on. The octree is not copied but lent: it stays as it is until
+// Mapper::endSnapshot() (meanwhile every insertion goes into the insertion cache only).
 struct MapSnapshot {
-  std::unique_ptr<octomap::OcTree> tree;
+  const octomap::OcTree* tree = nullptr;
   GridImage slice;                  // cropped to the known area
   unsigned band_lo = 0, band_hi = 0;  // the slice's z keys
   std::vector<StoredScan> scans;    // only when asked for
@@ -63,7 +67,12 @@ class Mapper {
   OptimizedMap optimize(bool warm_start, const ProgressFn& progress = {}) const;
   // Writes an optimized grid into the octree's slice-band voxels and refreshes the slice.
   void applyOptimized(const GridImage& grid);
-  MapSnapshot snapshot(bool with_scans) const;
+  // Brings the octree up to date and lends it (see MapSnapshot) until endSnapshot(). Reading the
+  // lent octree from another thread is safe while this thread keeps inserting; reset(), load()
+  // and applyOptimized() are refused meanwhile.
+  MapSnapshot snapshot(bool with_scans);
+  void endSnapshot();
+  bool lent() const { return lent_; }
 
   // The octree, brought up to date with the insertion cache first.
   const octomap::OcTree& tree() const;
@@ -85,6 +94,7 @@ class Mapper {
   std::unique_ptr<SliceGrid> slice_;
   ScanStore store_;
   MapperStats stats_;
+  bool lent_ = false;
 };
 
 }  // namespace octo_slice_mapper

@@ -79,6 +79,9 @@ class ScanInserter {
   // up to date only after flush(). Whoever changes the octree by other means must flush() before
   // and dropCache() after.
   void flush() { cache_.flush(); }
+  // While the octree is lent to a reader, every update (also of non-level scans and point clouds)
+  // goes into the cache; the caller must not flush meanwhile.
+  void setOctreeLent(bool lent) { octree_lent_ = lent; }
   void dropCache() { cache_.clear(); }
   const LayerCache& cache() const { return cache_; }
 
@@ -121,6 +124,7 @@ class ScanInserter {
   std::vector<Ray> fan_;  // scratch: one beam's rays
 
   LayerCache cache_;
+  bool octree_lent_ = false;
 };
 
 }  // namespace octo_slice_mapper

@@ -33,6 +33,7 @@ void Mapper::adopt(std::unique_ptr<octomap::OcTree> tree) {
 InsertResult Mapper::insert(const Scan& scan) {
   InsertResult result = record(inserter_->insert(scan));
   if (result.ok() && options_.keep_scans) store_.add(scan);
+  if (!lent_ && inserter_->cache().dirtyCount() > options_.max_unflushed_voxels) inserter_->flush();
   return result;
 }
 
@@ -53,12 +54,17 @@ InsertResult Mapper::record(InsertResult result) {
 }
 
 void Mapper::reset() {
+  if (lent_) throw std::logic_error("mapper: reset while the octree is lent");
   adopt(std::make_unique<octomap::OcTree>(options_.resolution));
   store_.clear();
   stats_ = MapperStats();
 }
 
 bool Mapper::load(const std::string& path, std::string* error) {
+  if (lent_) {
+    *error = "the map is being saved or optimized";
+    return false;
+  }
   std::unique_ptr<octomap::OcTree> tree = loadTree(path, error);
   if (!tree) return false;
   try {
@@ -71,7 +77,7 @@ bool Mapper::load(const std::string& path, std::string* error) {
 }
 
 const octomap::OcTree& Mapper::tree() const {
-  inserter_->flush();
+  if (!lent_) inserter_->flush();  // a lent tree must not change; it is current as lent
   return *tree_;
 }
 
@@ -85,9 +91,12 @@ OptimizedMap Mapper::optimize(bool warm_start, const ProgressFn& progress) const
                        progress);
 }
 
-MapSnapshot Mapper::snapshot(bool with_scans) const {
+MapSnapshot Mapper::snapshot(bool with_scans) {
+  if (lent_) throw std::logic_error("mapper: the octree is already lent");
   MapSnapshot snap;
-  snap.tree = std::make_unique<octomap::OcTree>(tree());
+  snap.tree = &tree();
+  lent_ = true;
+  inserter_->setOctreeLent(true);
   snap.slice = gridImageOf(*slice_);
   snap.band_lo = slice_->bandMinKey();
   snap.band_hi = slice_->bandMaxKey();
@@ -95,7 +104,13 @@ MapSnapshot Mapper::snapshot(bool with_scans) const {
   return snap;
 }
 
+void Mapper::endSnapshot() {
+  lent_ = false;
+  inserter_->setOctreeLent(false);
+}
+
 void Mapper::applyOptimized(const GridImage& grid) {
+  if (lent_) throw std::logic_error("mapper: applyOptimized while the octree is lent");
   inserter_->flush();
   const std::vector<octomap::OcTreeKey> keys = writeGridIntoBand(grid, slice_->bandMinKey(), slice_->bandMaxKey(), tree_.get());
   inserter_->dropCache();  // it holds the values from before

@@ -429,7 +429,7 @@ InsertResult ScanInserter::apply(std::vector<KeyUpdate> updates, InsertResult re
   std::vector<KeyUpdate> direct;
   direct.reserve(updates.size());
   for (const KeyUpdate& u : updates) {
-    if (cache_.findLayer(u.key[2])) {
+    if (octree_lent_ || cache_.findLayer(u.key[2])) {
       if (!cache_.apply(u.key, u.log_odds)) continue;
     } else {
       direct.push_back(u);

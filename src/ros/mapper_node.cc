@@ -300,16 +300,20 @@ bool MapperNode::onSaveMap(SaveMap::Request& req, SaveMap::Response& res) {
     snapshot = mapper_.snapshot(/*with_scans=*/options_.optimize_on_save);
     noteServiceLock(held);
   }
+  OctreeLoan loan(&mapper_, &mutex_);  // scans keep going into the insertion cache meanwhile
   res.success = saveMapSet(*snapshot.tree, snapshot.slice, prefix, &res.files, &error);
   std::string global_pass;
+  std::unique_ptr<OptimizedMap> optimized;
   if (res.success && options_.optimize_on_save && snapshot.scans.empty()) {
     global_pass = "; global pass skipped: no kept scans (~keep_scans is false, or nothing inserted)";
   } else if (res.success && options_.optimize_on_save) {
-    const OptimizedMap optimized = optimizeSnapshot(snapshot, options_.optimize_warm_start);
-    global_pass = "; " + describe(optimized.report);
-    res.success = saveOptimizedSet(*snapshot.tree, snapshot.band_lo, snapshot.band_hi, optimized.grid, prefix,
+    optimized = std::make_unique<OptimizedMap>(optimizeSnapshot(snapshot, options_.optimize_warm_start));
+    global_pass = "; " + describe(optimized->report);
+    res.success = saveOptimizedSet(*snapshot.tree, snapshot.band_lo, snapshot.band_hi, optimized->grid, prefix,
                                    &res.files, &error);
   }
+  loan.end();
+  if (optimized) applyOptimizedToMap(optimized->grid);
   if (res.success) {
     res.message = "saved";
     for (const std::string& f : res.files) res.message += " " + f;
@@ -322,6 +326,15 @@ bool MapperNode::onSaveMap(SaveMap::Request& req, SaveMap::Response& res) {
   return true;
 }
 
+MapperNode::OctreeLoan::~OctreeLoan() { end(); }
+
+void MapperNode::OctreeLoan::end() {
+  if (!mapper_) return;
+  std::lock_guard<std::mutex> lock(*mutex_);
+  mapper_->endSnapshot();
+  mapper_ = nullptr;
+}
+
 void MapperNode::noteServiceLock(const ros::WallTime& since) {
   counters_.longest_service_lock_ms =
       std::max(counters_.longest_service_lock_ms, 1000.0 * (ros::WallTime::now() - since).toSec());
@@ -330,20 +343,22 @@ void MapperNode::noteServiceLock(const ros::WallTime& since) {
 OptimizedMap MapperNode::optimizeSnapshot(const MapSnapshot& snapshot, bool warm_start) {
   ROS_INFO("global pass over %zu scans (start: %s)", snapshot.scans.size(), warm_start ? "incremental map" : "all free");
   const OptimizedMap optimized = optimizeScans(
-      snapshot.scans, mapper_.options().optimizer, snapshot.tree->getResolution(), warm_start ? &snapshot.slice : nullptr,
+      snapshot.scans, mapper_.options().optimizer, mapper_.options().resolution, warm_start ? &snapshot.slice : nullptr,
       [](const std::string& stage, double fraction) { ROS_INFO_THROTTLE(2.0, "global pass: %s %.0f %%", stage.c_str(), 100.0 * fraction); });
   ROS_INFO("%s", describe(optimized.report).c_str());
   nav_msgs::OccupancyGrid grid;
   toOccupancyGrid(optimized.grid, mapper_.options().slice.min_z, options_.frame_id, ros::Time::now(), &grid);
   if (ros::ok()) optimized_pub_.publish(grid);
-  if (options_.write_optimized_into_map) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    const ros::WallTime held = ros::WallTime::now();
-    mapper_.applyOptimized(optimized.grid);
-    map_changed_ = true;
-    noteServiceLock(held);
-  }
   return optimized;
+}
+
+void MapperNode::applyOptimizedToMap(const GridImage& grid) {
+  if (!options_.write_optimized_into_map) return;
+  std::lock_guard<std::mutex> lock(mutex_);
+  const ros::WallTime held = ros::WallTime::now();
+  mapper_.applyOptimized(grid);
+  map_changed_ = true;
+  noteServiceLock(held);
 }
 
 bool MapperNode::onOptimize(Optimize::Request& req, Optimize::Response& res) {
@@ -353,6 +368,8 @@ bool MapperNode::onOptimize(Optimize::Request& req, Optimize::Response& res) {
     std::lock_guard<std::mutex> lock(mutex_);
     const ros::WallTime held = ros::WallTime::now();
     snapshot = mapper_.snapshot(/*with_scans=*/true);
+    mapper_.endSnapshot();  // the global pass needs the scans and the slice, not the octree
+    snapshot.tree = nullptr;
     noteServiceLock(held);
   }
   if (snapshot.scans.empty()) {
@@ -360,7 +377,9 @@ bool MapperNode::onOptimize(Optimize::Request& req, Optimize::Response& res) {
     res.message = "no scans kept (none inserted yet, or ~keep_scans is false)";
     return true;
   }
-  const OptimizeReport r = optimizeSnapshot(snapshot, req.warm_start).report;
+  const OptimizedMap optimized = optimizeSnapshot(snapshot, req.warm_start);
+  applyOptimizedToMap(optimized.grid);
+  const OptimizeReport& r = optimized.report;
   res.success = true;
   res.initial_log_likelihood = r.initial_log_likelihood;
   res.final_log_likelihood = r.final_log_likelihood;

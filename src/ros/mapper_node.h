@@ -58,6 +58,20 @@ class MapperNode {
   // The global pass on a snapshot: publishes ~optimized_map and, if configured, writes the result
   // into the live map's slice band.
   void noteServiceLock(const ros::WallTime& since);  // with mutex_ held
+  void applyOptimizedToMap(const GridImage& grid);   // if ~write_optimized_into_map
+  // Ends a snapshot's loan of the octree (at end() or on leaving the scope).
+  class OctreeLoan {
+   public:
+    OctreeLoan(Mapper* mapper, std::mutex* mutex) : mapper_(mapper), mutex_(mutex) {}
+    ~OctreeLoan();
+    OctreeLoan(const OctreeLoan&) = delete;
+    OctreeLoan& operator=(const OctreeLoan&) = delete;
+    void end();
+
+   private:
+    Mapper* mapper_;
+    std::mutex* mutex_;
+  };
   OptimizedMap optimizeSnapshot(const MapSnapshot& snapshot, bool warm_start);
 
   ros::NodeHandle nh_, pnh_;

@@ -142,9 +142,11 @@ std::string jsonMemory(const osm::Mapper& mapper) {
   const double cells = std::max<std::size_t>(1, mapper.slice().knownCells());
   const std::size_t octree = mapper.tree().memoryUsage();
   const std::size_t slice = mapper.slice().memoryBytes();
+  const std::size_t cache = mapper.inserter().cache().memoryBytes();
   std::ostringstream j;
-  j << "{\"octree_bytes\": " << octree << ", \"slice_bytes\": " << slice << ", \"octree_bytes_per_cell\": "
-    << octree / cells << ", \"slice_bytes_per_cell\": " << slice / cells << "}";
+  j << "{\"octree_bytes\": " << octree << ", \"slice_bytes\": " << slice << ", \"insertion_cache_bytes\": " << cache
+    << ", \"octree_bytes_per_cell\": " << octree / cells << ", \"slice_bytes_per_cell\": " << slice / cells
+    << ", \"insertion_cache_bytes_per_cell\": " << cache / cells << "}";
   return j.str();
 }
 
@@ -224,6 +226,16 @@ int main(int argc, char** argv) {
     return 1;
   }
 
+  // What a service of the node would hold the map for: bringing the octree up to date with the
+  // insertion cache (here: everything, as nothing read the octree before), then the snapshot.
+  auto t0 = Clock::now();
+  mapper->tree();
+  const double flush_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  t0 = Clock::now();
+  const std::size_t snapshot_leaves = mapper->snapshot(/*with_scans=*/true).tree->getNumLeafNodes();
+  mapper->endSnapshot();
+  const double snapshot_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+
   std::vector<std::string> files;
   if (!mapper->save(args.out, &files, &error)) {
     std::cerr << "octo_slice_map: " << error << "\n";
@@ -257,6 +269,8 @@ int main(int argc, char** argv) {
        << ", \"known_cells\": " << mapper->slice().knownCells()
        << ", \"memory\": " << jsonMemory(*mapper)
        << ", \"insert_ms_per_scan\": " << 1000.0 * insert_seconds / stats.scans_inserted
+       << ", \"flush_ms\": " << flush_ms << ", \"snapshot_ms\": " << snapshot_ms
+       << ", \"snapshot_leaves\": " << snapshot_leaves
        << ", \"scan_store_mb\": " << mapper->scanStore().memoryBytes() / 1e6;
   if (args.optimize) {
     const osm::OptimizeReport& r = optimized.report;
