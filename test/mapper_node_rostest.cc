@@ -6,6 +6,7 @@
 #include <nav_msgs/OccupancyGrid.h>
 #include <ros/ros.h>
 #include <sensor_msgs/LaserScan.h>
+#include <sensor_msgs/point_cloud2_iterator.h>
 #include <std_srvs/Empty.h>
 #include <sys/stat.h>
 #include <tf2_ros/static_transform_broadcaster.h>
@@ -233,6 +234,25 @@ TEST_F(MapperNodeTest, DiagnosticsCountSkippedScansPerReason) {
             << "), length_mismatch " << diagnostic("skipped_length_mismatch") << ", waiting " << diagnostic("waiting_for_tf");
   EXPECT_GE(diagnostic("scans_received"), diagnostic("scans_inserted") + diagnostic("scans_skipped"));
   EXPECT_GT(diagnostic("voxels"), 0.0);
+}
+
+// A point cloud in a frame tf never hears of is given up after ~transform_timeout as well.
+TEST_F(MapperNodeTest, CloudsWaitingForTfTimeOutToo) {
+  ros::Publisher cloud_pub = nh_.advertise<sensor_msgs::PointCloud2>("cloud_in", 5);
+  ASSERT_TRUE(waitFor([&cloud_pub] { return cloud_pub.getNumSubscribers() >= 1; }, 20.0));
+  ASSERT_TRUE(waitFor([this] { return diagnostic("scans_received") >= 0; }, 10.0)) << "no /diagnostics";
+  const double unknown_before = std::max(0.0, diagnostic("skipped_unknown_frame"));
+  sensor_msgs::PointCloud2 cloud;
+  cloud.header.frame_id = "camera_nobody_publishes";
+  cloud.header.stamp = ros::Time::now();
+  sensor_msgs::PointCloud2Modifier modifier(cloud);
+  modifier.setPointCloud2FieldsByString(1, "xyz");
+  modifier.resize(3);
+  sensor_msgs::PointCloud2Iterator<float> x(cloud, "x");
+  for (int i = 0; i < 3; ++i, ++x) x[0] = 1.0f + i, x[1] = 0.0f, x[2] = 0.3f;
+  cloud_pub.publish(cloud);
+  EXPECT_TRUE(waitFor([&] { return diagnostic("skipped_unknown_frame") >= unknown_before + 1; }, 20.0))
+      << "unknown_frame " << diagnostic("skipped_unknown_frame") << " (before " << unknown_before << ")";
 }
 
 TEST_F(MapperNodeTest, TimeJumpingBackIsDetectedAndMappingContinues) {

@@ -77,10 +77,15 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   scan_filter_->registerFailureCallback(boost::bind(&MapperNode::onScanTransformFailure, this, boost::placeholders::_1, boost::placeholders::_2));
 
   cloud_sub_.subscribe(nh_, "cloud_in", 5);
+  cloud_sub_.registerCallback(boost::function<void(const sensor_msgs::PointCloud2::ConstPtr&)>(
+      [this](const sensor_msgs::PointCloud2::ConstPtr& msg) { waiting_clouds_.arrived(msg, ros::WallTime::now()); }));
   cloud_filter_ = std::make_unique<tf2_ros::MessageFilter<sensor_msgs::PointCloud2>>(cloud_sub_, tf_buffer_,
                                                                                     options_.frame_id, 5, nh_);
   cloud_filter_->registerCallback(boost::bind(&MapperNode::onCloud, this, boost::placeholders::_1));
-  cloud_filter_->registerFailureCallback(boost::bind(&MapperNode::onTransformFailure<sensor_msgs::PointCloud2>, this, boost::placeholders::_1, boost::placeholders::_2));
+  cloud_filter_->registerFailureCallback(boost::function<void(const sensor_msgs::PointCloud2::ConstPtr&, tf2_ros::FilterFailureReason)>(
+      [this](const sensor_msgs::PointCloud2::ConstPtr& msg, tf2_ros::FilterFailureReason reason) {
+        if (waiting_clouds_.resolved(msg)) onTransformFailure(msg, reason);  // else counted at its timeout
+      }));
 
   publish_timer_ = nh_.createTimer(ros::Duration(1.0 / std::max(0.1, options_.publish_rate)), &MapperNode::publish, this);
   diagnostics_timer_ = nh_.createTimer(ros::Duration(1.0), &MapperNode::publishDiagnostics, this);
@@ -97,20 +102,29 @@ void MapperNode::skip(const std::string& reason, const std::string& message) {
 }
 
 void MapperNode::expireWaitingScans(const ros::WallTimerEvent&) {
-  const auto transform_there = [this](const sensor_msgs::LaserScan::ConstPtr& msg) {
+  expireWaiting(&waiting_scans_, "scan");
+  expireWaiting(&waiting_clouds_, "point cloud");
+}
+
+// Messages still waiting for their transform after ~transform_timeout are given up and counted
+// (the tf filter would otherwise hold them until newer ones push them out).
+template <typename M>
+void MapperNode::expireWaiting(PendingMessages<M>* waiting, const std::string& what) {
+  const auto transform_there = [this](const boost::shared_ptr<const M>& msg) {
     return tf_buffer_.canTransform(options_.frame_id, msg->header.frame_id, msg->header.stamp);
   };
   const auto expired =
-      waiting_scans_.expire(ros::WallTime::now(), ros::WallDuration(options_.transform_timeout), transform_there);
-  for (const sensor_msgs::LaserScan::ConstPtr& msg : expired) {
+      waiting->expire(ros::WallTime::now(), ros::WallDuration(options_.transform_timeout), transform_there);
+  for (const boost::shared_ptr<const M>& msg : expired) {
     const std::string& frame = msg->header.frame_id;
     std::string why;
     if (!tf_buffer_._frameExists(frame)) {
-      skip("unknown_frame", "frame '" + frame + "' is not in tf (waited " + std::to_string(options_.transform_timeout) + " s)");
+      skip("unknown_frame", what + " frame '" + frame + "' is not in tf (waited " +
+                                std::to_string(options_.transform_timeout) + " s)");
     } else {
       tf_buffer_.canTransform(options_.frame_id, frame, msg->header.stamp, &why);
-      skip("transform_timeout", "no transform " + options_.frame_id + " <- '" + frame + "' within " +
-                                    std::to_string(options_.transform_timeout) + " s: " + why);
+      skip("transform_timeout", "no transform " + options_.frame_id + " <- '" + frame + "' for a " + what +
+                                    " within " + std::to_string(options_.transform_timeout) + " s: " + why);
     }
   }
 }
@@ -215,6 +229,7 @@ void MapperNode::onScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
 }
 
 void MapperNode::onCloud(const sensor_msgs::PointCloud2::ConstPtr& msg) {
+  if (!waiting_clouds_.resolved(msg)) return;  // timed out and counted already
   Eigen::Isometry3d pose;
   if (!sensorPose(msg->header, &pose)) return;
   pcl::PointCloud<pcl::PointXYZ> cloud;

@@ -50,6 +50,8 @@ class MapperNode {
   void publishFullMap(const ros::Time& stamp, bool with_markers);
   void publishDiagnostics(const ros::TimerEvent&);
   void expireWaitingScans(const ros::WallTimerEvent&);
+  template <typename M>
+  void expireWaiting(PendingMessages<M>* waiting, const std::string& what);
   // A scan stamped well before the last one: a bag restarted (--loop) or /clock reset.
   void checkTimeJump(const ros::Time& stamp);
   bool onSaveMap(SaveMap::Request& req, SaveMap::Response& res);
@@ -94,6 +96,7 @@ class MapperNode {
   ros::Timer publish_timer_, diagnostics_timer_;
   ros::WallTimer expire_timer_;
   PendingMessages<sensor_msgs::LaserScan> waiting_scans_;
+  PendingMessages<sensor_msgs::PointCloud2> waiting_clouds_;
 
   bool map_changed_ = true;
   std::uint64_t published_geometry_ = ~std::uint64_t{0};  // slice geometry of the last full map sent
