@@ -148,7 +148,9 @@ TEST(LayerCache, CombinesEvidencePerScanBeforeApplying) {
   cache.add(layer, key[0], key[1], 0.7f);  // occupied evidence wins over a beam passing by
   cache.add(layer, key[0], key[1], 0.3f);
   std::vector<octomap::OcTreeKey> changed;
-  EXPECT_EQ(cache.endScan(&changed), 1u);
+  KeyBox updated;
+  EXPECT_EQ(cache.endScan(&changed, &updated), 1u);
+  EXPECT_FALSE(updated.empty());
   ASSERT_EQ(changed.size(), 1u);
   cache.flush();
   reference.updateNode(key, 0.7f);

@@ -9,6 +9,7 @@
 #include <memory>
 #include <vector>
 
+#include "octo_slice_mapper/key_box.h"
 #include "octo_slice_mapper/octree_batch_update.h"
 
 namespace octo_slice_mapper {
@@ -77,9 +78,9 @@ class LayerCache {
     touched_[touched_count_] = {&cell, &slot->state[index], octomap::OcTreeKey(kx, ky, layer.z)};
     touched_count_ += fresh;
   }
-  // Applies the scan's combined evidence. Appends the keys whose log-odds changed to `changed`
-  // and returns how many voxels received a non-zero update.
-  std::size_t endScan(std::vector<octomap::OcTreeKey>* changed);
+  // Applies the scan's combined evidence. Appends the keys whose log-odds changed to `changed`,
+  // adds every voxel that received a non-zero update to `updated`, and returns how many did.
+  std::size_t endScan(std::vector<octomap::OcTreeKey>* changed, KeyBox* updated);
 
   // One update of a voxel in a cached layer (for updates computed elsewhere); false if the
   // value did not change.

@@ -28,8 +28,9 @@ struct InsertOptions {
 struct InsertResult {
   ReadingCounts readings;          // per-reason reading counts of this scan
   std::uint64_t voxels_updated = 0;
-  KeyBox touched;                  // keys whose log-odds changed (bounding box)
-  std::vector<octomap::OcTreeKey> updated_keys;  // and the keys themselves
+  KeyBox touched;                  // bounding box of the keys the scan updated (changed or not)
+  std::vector<octomap::OcTreeKey> updated_keys;  // the keys whose log-odds changed (some of the
+                                                 // general path's may not have)
   std::string error;               // non-empty: the whole scan was rejected, map untouched
   bool ok() const { return error.empty(); }
 };

@@ -95,13 +95,14 @@ bool LayerCache::applyTo(const Ref& ref, float update) {
   return true;
 }
 
-std::size_t LayerCache::endScan(std::vector<octomap::OcTreeKey>* changed) {
+std::size_t LayerCache::endScan(std::vector<octomap::OcTreeKey>* changed, KeyBox* updated) {
   std::size_t updates = 0;
   for (std::size_t i = 0; i < touched_count_; ++i) {
     const Ref& ref = touched_[i];
     const float update = ref.cell->pos > 0.0f ? ref.cell->pos : ref.cell->neg;
     if (update == 0.0f) continue;
     ++updates;
+    if (updated) updated->add(ref.key);
     if (applyTo(ref, update) && changed) changed->push_back(ref.key);
   }
   touched_count_ = 0;

@@ -417,8 +417,7 @@ InsertResult ScanInserter::insertLevel(const Eigen::Vector3d& origin, const std:
              [this, &layer](const octomap::OcTreeKey& key, float value) __attribute__((always_inline)) {
                cache_.add(layer, key[0], key[1], value);  // a level scan's keys are all in its layer
              });
-  result.voxels_updated = cache_.endScan(&result.updated_keys);
-  for (const octomap::OcTreeKey& k : result.updated_keys) result.touched.add(k);
+  result.voxels_updated = cache_.endScan(&result.updated_keys, &result.touched);
   return result;
 }
 
@@ -429,12 +428,12 @@ InsertResult ScanInserter::apply(std::vector<KeyUpdate> updates, InsertResult re
   std::vector<KeyUpdate> direct;
   direct.reserve(updates.size());
   for (const KeyUpdate& u : updates) {
+    result.touched.add(u.key);
     if (octree_lent_ || cache_.findLayer(u.key[2])) {
       if (!cache_.apply(u.key, u.log_odds)) continue;
     } else {
       direct.push_back(u);
     }
-    result.touched.add(u.key);
     result.updated_keys.push_back(u.key);
   }
   applyUpdatesInTreeOrder(tree_, &direct);
