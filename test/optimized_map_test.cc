@@ -104,6 +104,25 @@ TEST_F(OptimizedMapTest, ApplyingTheResultUpdatesTreeAndSlice) {
     }
   }
   EXPECT_GT(known, 500u);
+
+  // Mapping goes on after the result was written: the insertion cache reads the written voxels
+  // back from the octree (not its stale values), so the map equals one whose octree got the same
+  // updates directly.
+  octomap::OcTree direct(mapper.tree());
+  ScanInserter plain(&direct, InsertOptions{});
+  const auto scans = session.allScans();
+  for (std::size_t k = 0; k < scans.size(); k += 7) {
+    ASSERT_TRUE(mapper.insert(scans[k]).ok());
+    ASSERT_TRUE(plain.insert(scans[k]).ok());
+  }
+  plain.flush();
+  const octomap::OcTree& live = mapper.tree();
+  ASSERT_EQ(live.getNumLeafNodes(), direct.getNumLeafNodes());
+  for (auto it = direct.begin_leafs(); it != direct.end_leafs(); ++it) {
+    const octomap::OcTreeNode* node = live.search(it.getKey(), it.getDepth());
+    ASSERT_NE(node, nullptr);
+    ASSERT_EQ(node->getLogOdds(), it->getLogOdds());
+  }
 }
 
 }  // namespace

@@ -91,6 +91,9 @@ class LayerCache {
   enum class Lookup { kNotCached, kUnknown, kKnown };
   Lookup lookup(unsigned kx, unsigned ky, unsigned kz, float* value) const;
 
+  // After the octree's value of `key` was changed behind the cache's back (the cache must hold
+  // nothing unflushed for it): the next use reads it from the octree again.
+  void forget(const octomap::OcTreeKey& key);
   // Writes every value the octree lags behind into it. The cache stays valid.
   void flush();
   // Forgets everything (after the octree was changed behind the cache's back, e.g. replaced).

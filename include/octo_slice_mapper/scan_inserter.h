@@ -84,6 +84,7 @@ class ScanInserter {
   // goes into the cache; the caller must not flush meanwhile.
   void setOctreeLent(bool lent) { octree_lent_ = lent; }
   void dropCache() { cache_.clear(); }
+  void forgetCached(const octomap::OcTreeKey& key) { cache_.forget(key); }
   const LayerCache& cache() const { return cache_; }
 
  private:

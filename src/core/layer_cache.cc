@@ -144,6 +144,15 @@ LayerCache::Lookup LayerCache::lookup(unsigned kx, unsigned ky, unsigned kz, flo
   }
 }
 
+void LayerCache::forget(const octomap::OcTreeKey& key) {
+  const Layer* l = findLayer(key[2]);
+  if (!l || !l->covers(key[0], key[1])) return;
+  Tile* tile = l->tiles[std::size_t(int(key[1] >> kTileBits) - l->ty0) * l->ntx + (int(key[0] >> kTileBits) - l->tx0)].get();
+  if (!tile) return;
+  std::uint8_t& state = tile->state[((key[1] & kTileMask) << kTileBits) | (key[0] & kTileMask)];
+  state = static_cast<std::uint8_t>(state & ~kLoadMask);  // kUnloaded
+}
+
 void LayerCache::flush() {
   if (dirty_.empty()) return;
   flush_buffer_.clear();

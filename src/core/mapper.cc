@@ -113,7 +113,7 @@ void Mapper::applyOptimized(const GridImage& grid) {
   if (lent_) throw std::logic_error("mapper: applyOptimized while the octree is lent");
   inserter_->flush();
   const std::vector<octomap::OcTreeKey> keys = writeGridIntoBand(grid, slice_->bandMinKey(), slice_->bandMaxKey(), tree_.get());
-  inserter_->dropCache();  // it holds the values from before
+  for (const octomap::OcTreeKey& k : keys) inserter_->forgetCached(k);  // it holds the values from before
   KeyBox box;
   for (const octomap::OcTreeKey& k : keys) box.add(k);
   slice_->updateColumns(keys, box);

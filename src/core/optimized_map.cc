@@ -4,6 +4,7 @@
 
 #include "octo_slice_mapper/key_box.h"
 #include "octo_slice_mapper/map_io.h"
+#include "octo_slice_mapper/octree_batch_update.h"
 
 namespace octo_slice_mapper {
 
@@ -23,7 +24,7 @@ OptimizedMap optimizeScans(const std::vector<StoredScan>& scans, const GlobalOpt
 
 std::vector<octomap::OcTreeKey> writeGridIntoBand(const GridImage& grid, unsigned band_lo, unsigned band_hi,
                                                   octomap::OcTree* tree) {
-  std::vector<octomap::OcTreeKey> written;
+  std::vector<KeyUpdate> values;
   const float occupied = tree->getClampingThresMaxLog(), free = tree->getClampingThresMinLog();
   for (int j = 0; j < grid.height; ++j) {
     for (int i = 0; i < grid.width; ++i) {
@@ -36,13 +37,16 @@ std::vector<octomap::OcTreeKey> writeGridIntoBand(const GridImage& grid, unsigne
       }
       for (unsigned kz = band_lo; kz <= band_hi; ++kz) {
         key[2] = static_cast<octomap::key_type>(kz);
-        tree->setNodeValue(key, v > 50 ? occupied : free, /*lazy_eval=*/true);
-        written.push_back(key);
+        values.push_back({key, v > 50 ? occupied : free});
       }
     }
   }
-  tree->updateInnerOccupancy();  // lazy updates leave the inner nodes stale until now
-  tree->prune();                 // and unpruned: merge identical children again (lossless)
+  std::vector<octomap::OcTreeKey> written;
+  written.reserve(values.size());
+  for (const KeyUpdate& u : values) written.push_back(u.key);
+  // One pass down the tree in octree order, pruning along the way: cost grows with the grid, not
+  // with the whole tree (the node does this under its map lock).
+  setValuesInTreeOrder(tree, &values);
   return written;
 }
 

@@ -369,11 +369,20 @@ OptimizedMap MapperNode::optimizeSnapshot(const MapSnapshot& snapshot, bool warm
 
 void MapperNode::applyOptimizedToMap(const GridImage& grid) {
   if (!options_.write_optimized_into_map) return;
-  std::lock_guard<std::mutex> lock(mutex_);
-  const ros::WallTime held = ros::WallTime::now();
-  mapper_.applyOptimized(grid);
-  map_changed_ = true;
-  noteServiceLock(held);
+  // In strips of rows, each under the lock on its own, so that scans are inserted in between.
+  const int rows = std::max(1, 4096 / std::max(1, grid.width));
+  for (int j0 = 0; j0 < grid.height; j0 += rows) {
+    GridImage strip = grid;
+    strip.height = std::min(rows, grid.height - j0);
+    strip.origin_y = grid.origin_y + j0 * grid.resolution;
+    strip.cells.assign(grid.cells.begin() + std::size_t(j0) * grid.width,
+                       grid.cells.begin() + std::size_t(j0 + strip.height) * grid.width);
+    std::lock_guard<std::mutex> lock(mutex_);
+    const ros::WallTime held = ros::WallTime::now();
+    mapper_.applyOptimized(strip);
+    map_changed_ = true;
+    noteServiceLock(held);
+  }
 }
 
 bool MapperNode::onOptimize(Optimize::Request& req, Optimize::Response& res) {
