@@ -57,10 +57,9 @@ class MapperNode {
   bool onSaveMap(SaveMap::Request& req, SaveMap::Response& res);
   bool onReset(std_srvs::Empty::Request&, std_srvs::Empty::Response&);
   bool onOptimize(Optimize::Request& req, Optimize::Response& res);
-  // The global pass on a snapshot: publishes ~optimized_map and, if configured, writes the result
-  // into the live map's slice band.
   void noteServiceLock(const ros::WallTime& since);  // with mutex_ held
-  void applyOptimizedToMap(const GridImage& grid);   // if ~write_optimized_into_map
+  // Writes the global pass's result into the live map's slice band (if ~write_optimized_into_map).
+  void applyOptimizedToMap(const GridImage& grid);
   // Ends a snapshot's loan of the octree (at end() or on leaving the scope).
   class OctreeLoan {
    public:
@@ -74,6 +73,7 @@ class MapperNode {
     Mapper* mapper_;
     std::mutex* mutex_;
   };
+  // The global pass on a snapshot; publishes ~optimized_map.
   OptimizedMap optimizeSnapshot(const MapSnapshot& snapshot, bool warm_start);
 
   ros::NodeHandle nh_, pnh_;
