@@ -48,7 +48,16 @@ class LayerCache {
       const int tx = int(kx >> kTileBits) - tx0, ty = int(ky >> kTileBits) - ty0;
       return tx >= 0 && ty >= 0 && tx < ntx && ty < nty;
     }
+    // The directory slot of the tile holding (kx, ky), which the layer must cover.
+    std::size_t slotIndex(unsigned kx, unsigned ky) const {
+      return std::size_t(int(ky >> kTileBits) - ty0) * ntx + (int(kx >> kTileBits) - tx0);
+    }
+    std::unique_ptr<Tile>& slot(unsigned kx, unsigned ky) { return tiles[slotIndex(kx, ky)]; }
+    // The tile holding (kx, ky), or null when none was made there.
+    Tile* tile(unsigned kx, unsigned ky) const { return covers(kx, ky) ? tiles[slotIndex(kx, ky)].get() : nullptr; }
   };
+  // Where (kx, ky) lies inside its tile.
+  static unsigned cellIndex(unsigned kx, unsigned ky) { return ((ky & kTileMask) << kTileBits) | (kx & kTileMask); }
 
   explicit LayerCache(octomap::OcTree* tree);
 
@@ -63,10 +72,9 @@ class LayerCache {
   // Evidence `value` of the current scan for voxel (kx, ky) of `layer`, which must cover it.
   // Per voxel and scan the largest positive evidence wins, else the most negative one.
   __attribute__((always_inline)) inline void add(Layer& layer, unsigned kx, unsigned ky, float value) {
-    std::unique_ptr<Tile>& slot = layer.tiles[std::size_t(int(ky >> kTileBits) - layer.ty0) * layer.ntx +
-                                              (int(kx >> kTileBits) - layer.tx0)];
+    std::unique_ptr<Tile>& slot = layer.slot(kx, ky);
     if (!slot) slot = std::make_unique<Tile>();
-    const unsigned index = ((ky & kTileMask) << kTileBits) | (kx & kTileMask);
+    const unsigned index = cellIndex(kx, ky);
     Cell& cell = slot->cells[index];
     // Branch-free: whether a beam already reached this voxel in this scan is unpredictable.
     const bool fresh = cell.stamp != stamp_;

@@ -112,10 +112,9 @@ std::size_t LayerCache::endScan(std::vector<octomap::OcTreeKey>* changed, KeyBox
 LayerCache::Cell* LayerCache::cellFor(const octomap::OcTreeKey& key, std::uint8_t** state) {
   Layer& l = layer(key[2]);
   cover(&l, key[0], key[1], key[0], key[1]);
-  std::unique_ptr<Tile>& slot =
-      l.tiles[std::size_t(int(key[1] >> kTileBits) - l.ty0) * l.ntx + (int(key[0] >> kTileBits) - l.tx0)];
+  std::unique_ptr<Tile>& slot = l.slot(key[0], key[1]);
   if (!slot) slot = std::make_unique<Tile>();
-  const unsigned index = ((key[1] & kTileMask) << kTileBits) | (key[0] & kTileMask);
+  const unsigned index = cellIndex(key[0], key[1]);
   *state = &slot->state[index];
   return &slot->cells[index];
 }
@@ -128,11 +127,9 @@ bool LayerCache::apply(const octomap::OcTreeKey& key, float update) {
 
 LayerCache::Lookup LayerCache::lookup(unsigned kx, unsigned ky, unsigned kz, float* value) const {
   const Layer* l = findLayer(static_cast<std::uint16_t>(kz));
-  if (!l || !l->covers(kx, ky)) return Lookup::kNotCached;
-  const Tile* tile =
-      l->tiles[std::size_t(int(ky >> kTileBits) - l->ty0) * l->ntx + (int(kx >> kTileBits) - l->tx0)].get();
+  const Tile* tile = l ? l->tile(kx, ky) : nullptr;
   if (!tile) return Lookup::kNotCached;
-  const unsigned index = ((ky & kTileMask) << kTileBits) | (kx & kTileMask);
+  const unsigned index = cellIndex(kx, ky);
   switch (tile->state[index] & kLoadMask) {
     case kKnown:
       *value = tile->cells[index].value;
@@ -146,10 +143,9 @@ LayerCache::Lookup LayerCache::lookup(unsigned kx, unsigned ky, unsigned kz, flo
 
 void LayerCache::forget(const octomap::OcTreeKey& key) {
   const Layer* l = findLayer(key[2]);
-  if (!l || !l->covers(key[0], key[1])) return;
-  Tile* tile = l->tiles[std::size_t(int(key[1] >> kTileBits) - l->ty0) * l->ntx + (int(key[0] >> kTileBits) - l->tx0)].get();
+  Tile* tile = l ? l->tile(key[0], key[1]) : nullptr;
   if (!tile) return;
-  std::uint8_t& state = tile->state[((key[1] & kTileMask) << kTileBits) | (key[0] & kTileMask)];
+  std::uint8_t& state = tile->state[cellIndex(key[0], key[1])];
   state = static_cast<std::uint8_t>(state & ~kLoadMask);  // kUnloaded
 }
 
