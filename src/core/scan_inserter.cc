@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <type_traits>
 
 namespace octo_slice_mapper {
 namespace {
@@ -321,25 +322,17 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
     // half_diagonal along the beam, and it is on the axis: closer than pure_free_until that is
     // the free valley without evaluating the model (most voxels of a scan).
     const double free_exit = (pure_free_until - half_diagonal - 1e-6) / length;
-    auto on_axis_visit = [&](const octomap::OcTreeKey& key, double t_exit) __attribute__((always_inline)) {
-      if (t_exit < free_exit) {
-        sink(key, l_free);
-      } else {
-        evaluate(key);
-      }
-    };
-    auto off_axis_visit = [&](const octomap::OcTreeKey& key, double) __attribute__((always_inline)) {
-      evaluate(key);
-    };
-    auto on_axis_level_visit = [&](const octomap::OcTreeKey& key, double t_exit) __attribute__((always_inline)) {
-      if (t_exit < free_exit) {
-        sink(key, l_free);
-      } else {
-        evaluate_level(key);
-      }
-    };
-    auto off_axis_level_visit = [&](const octomap::OcTreeKey& key, double) __attribute__((always_inline)) {
-      evaluate_level(key);
+    // Per voxel of a ray, evaluating it with `eval`; on the axis (kAxis), voxels left before
+    // free_exit are the free valley without evaluating. kAxis is a type so that the test
+    // vanishes from the fanned rays' loops.
+    auto visitor = [&](auto axis, const auto& eval) {
+      return [&sink, eval, free_exit, l_free](const octomap::OcTreeKey& key, double t_exit) __attribute__((always_inline)) {
+        if (decltype(axis)::value && t_exit < free_exit) {
+          sink(key, l_free);
+        } else {
+          eval(key);
+        }
+      };
     };
     // Scan beams of a level scan: the axis and `across` lie in the plane.
     const bool level_beam = beam.direction.z() == 0.0 && beam.across.z() == 0.0 && !beam.across.isZero();
@@ -353,14 +346,14 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
       if (!coordToKeySafe(*tree_, far.x(), far.y(), far.z(), &far_key)) continue;  // checked in the first pass
       if (level_beam) {  // its rays stay in the origin's layer: from.z == far.z exactly
         if (ray.axis) {
-          traverseLevel(*tree_, from, far, from_key, far_key, on_axis_level_visit);
+          traverseLevel(*tree_, from, far, from_key, far_key, visitor(std::true_type(), evaluate_level));
         } else {
-          traverseLevel(*tree_, from, far, from_key, far_key, off_axis_level_visit);
+          traverseLevel(*tree_, from, far, from_key, far_key, visitor(std::false_type(), evaluate_level));
         }
       } else if (ray.axis) {
-        traverseVoxels(*tree_, from, far, from_key, far_key, on_axis_visit);
+        traverseVoxels(*tree_, from, far, from_key, far_key, visitor(std::true_type(), evaluate));
       } else {
-        traverseVoxels(*tree_, from, far, from_key, far_key, off_axis_visit);
+        traverseVoxels(*tree_, from, far, from_key, far_key, visitor(std::false_type(), evaluate));
       }
     }
   }
