@@ -5,7 +5,10 @@
 // in real time: /tf odom -> base_link and the scan, both stamped now. The mapper answers each scan
 // with a map_updates message stamped with the scan's stamp; latency = arrival - stamp. Reports
 // median and p99 over the first and the last third of the run (a small and a grown map), scans
-// without an update (dropped), the mapper's CPU share (from /proc), and the full map's size.
+// without an answer (dropped), the mapper's CPU share (from /proc), and the full map's size.
+// Both subscriptions ask for TCP_NODELAY, as a latency-minded client should: without it the
+// node's small map_updates messages sit in the kernel (Nagle's algorithm meeting the client's
+// delayed ACK) and ~1 % of them arrive ~20 ms late (measured: p99 20.5 ms against 3 ms).
 #include <map_msgs/OccupancyGridUpdate.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <ros/ros.h>
@@ -82,11 +85,15 @@ int main(int argc, char** argv) {
   ros::Subscriber updates = nh.subscribe<map_msgs::OccupancyGridUpdate>(
       "map_updates", 1000, [&](const map_msgs::OccupancyGridUpdate::ConstPtr& u) {
         latency_by_stamp.emplace(u->header.stamp.toSec(), (ros::Time::now() - u->header.stamp).toSec());
-      });
+      },
+      ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
   ros::Subscriber maps = nh.subscribe<nav_msgs::OccupancyGrid>("map", 5, [&](const nav_msgs::OccupancyGrid::ConstPtr& m) {
     ++full_maps;
     map_cells = m->data.size();
-  });
+    // When a scan grows the grid the node answers it with the whole map (stamped with the scan)
+    // instead of an update; the periodic full maps carry other stamps and match no scan.
+    latency_by_stamp.emplace(m->header.stamp.toSec(), (ros::Time::now() - m->header.stamp).toSec());
+  }, ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
   ros::Publisher scan_pub = nh.advertise<sensor_msgs::LaserScan>("scan", 100);
   tf2_ros::TransformBroadcaster tf;
   tf2_ros::StaticTransformBroadcaster static_tf;

@@ -60,7 +60,7 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   service_spinner_->start();
 
   const uint32_t queue = static_cast<uint32_t>(std::max(1, options_.scan_queue_size));
-  scan_sub_.subscribe(nh_, "scan", queue);
+  scan_sub_.subscribe(nh_, "scan", queue, ros::TransportHints().tcpNoDelay());
   // Registered before the filter connects, so a scan is recorded before the filter can answer.
   scan_sub_.registerCallback(boost::function<void(const sensor_msgs::LaserScan::ConstPtr&)>(
       [this](const sensor_msgs::LaserScan::ConstPtr& msg) {
