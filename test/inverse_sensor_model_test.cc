@@ -130,3 +130,28 @@ TEST(InverseSensorModel, TabulatedProfileMatchesTheFormula) {
   EXPECT_LT(worst, 5e-5);
   EXPECT_NEAR(model.hitProfileExact(0.0), model.logOddsOccupied(), 0.05);
 }
+
+// The tracer evaluates the model from q = tan(off-axis angle) / tan(half-angle) with the cone
+// tabulated: it must agree with the direct formula across the cone and along the beam, for hits
+// and no-returns, and give nothing at and beyond the cone's edge.
+TEST(InverseSensorModel, TabulatedConeMatchesTheDirectModel) {
+  const InverseSensorModel model;
+  const InverseSensorModel::ConeTable cone(model, kHalf);
+  double worst = 0.0;
+  int nonzero = 0;
+  for (double q = 0.0; q < 1.0; q += 0.00731) {
+    const double angle = std::atan(q * cone.tanHalf());
+    for (double along = 0.5; along < 3.3; along += 0.0037) {
+      const float direct = model.hitUpdate(3.0, along, angle, kHalf);
+      worst = std::max(worst, double(std::abs(model.hitUpdateInCone(3.0, along, q, cone) - direct)));
+      worst = std::max(worst, double(std::abs(model.noReturnUpdateInCone(3.0, along, q, cone) -
+                                              model.noReturnUpdate(3.0, along, angle, kHalf))));
+      nonzero += direct != 0.0f;
+    }
+  }
+  EXPECT_LT(worst, 1e-4);
+  EXPECT_GT(nonzero, 10000);
+  EXPECT_EQ(model.hitUpdateInCone(3.0, 3.0, 1.0, cone), 0.0f);
+  EXPECT_EQ(model.hitUpdateInCone(3.0, 1.0, 1.7, cone), 0.0f);
+  EXPECT_EQ(model.hitUpdateInCone(3.0, -0.1, 0.0, cone), 0.0f);
+}

@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <unordered_map>
 #include <vector>
 
@@ -124,6 +125,7 @@ class ScanInserter {
   octomap::OcTreeKey window_lo_;
   int window_nx_ = 0, window_ny_ = 0, window_nz_ = 0;
   std::vector<Ray> fan_;  // scratch: one beam's rays
+  std::optional<InverseSensorModel::ConeTable> cone_;  // for the last half-angle seen
 
   LayerCache cache_;
   bool octree_lent_ = false;

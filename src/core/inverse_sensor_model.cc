@@ -105,4 +105,39 @@ float InverseSensorModel::noReturnUpdate(double clear_distance, double along, do
   return static_cast<float>(w * lookup(free_profile_, u));
 }
 
+InverseSensorModel::ConeTable::ConeTable(const InverseSensorModel& model, double half_angle)
+    : half_angle_(half_angle), tan_half_(std::tan(half_angle)), weight_(kSteps + 2), widen_(kSteps + 2) {
+  for (int i = 0; i <= kSteps + 1; ++i) {  // one past q = 1, so that interpolation never reads beyond
+    const double angle = std::atan(std::min(1.0, double(i) / kSteps) * tan_half_);
+    weight_[i] = static_cast<float>(i > kSteps ? 0.0 : model.coneWeight(angle, half_angle));
+    widen_[i] = static_cast<float>(
+        half_angle > 0.0 ? 1.0 + model.options_.sigma_angle_gain * std::min(1.0, angle / half_angle) : 1.0);
+  }
+}
+
+float InverseSensorModel::tabulatedUpdate(const std::vector<double>& profile, double range, double along, double q,
+                                          const ConeTable& cone) const {
+  if (!(q < 1.0) || along < 0.0) return 0.0f;
+  const double x = q * ConeTable::kSteps;
+  const int i = static_cast<int>(x);
+  const double f = x - i;
+  const double w = cone.weight_[i] + f * (cone.weight_[i + 1] - cone.weight_[i]);
+  if (w <= 0.0) return 0.0f;
+  const double widen = cone.widen_[i] + f * (cone.widen_[i + 1] - cone.widen_[i]);
+  const double sigma = std::max((options_.sigma_base + options_.sigma_per_meter * range) * widen, min_sigma_);
+  const double u = (along - range) / sigma;
+  if (u >= kBehindCutoff) return 0.0f;
+  if (u < kPureFreeBelow) return static_cast<float>(w * l_free_);
+  return static_cast<float>(w * lookup(profile, u));
+}
+
+float InverseSensorModel::hitUpdateInCone(double range, double along, double q, const ConeTable& cone) const {
+  return tabulatedUpdate(hit_profile_, range, along, q, cone);
+}
+
+float InverseSensorModel::noReturnUpdateInCone(double clear_distance, double along, double q,
+                                               const ConeTable& cone) const {
+  return tabulatedUpdate(free_profile_, clear_distance, along, q, cone);
+}
+
 }  // namespace octo_slice_mapper

@@ -263,7 +263,9 @@ template <typename Sink>
 void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
                               const std::vector<Beam>& beams, const std::vector<char>& usable, double half_angle,
                               Sink&& sink) {
-  const double tan_half = std::tan(half_angle);
+  if (!cone_ || cone_->halfAngle() != half_angle) cone_.emplace(model_, half_angle);
+  const InverseSensorModel::ConeTable& cone = *cone_;
+  const double tan_half = cone.tanHalf(), inv_tan_half = 1.0 / tan_half;
   const double tan_full = std::tan(model_.fullWeightAngle(half_angle));
   // A voxel's centre is at most half its diagonal from any point inside it.
   const double half_diagonal = 0.5 * std::sqrt(3.0) * tree_->getResolution();
@@ -287,20 +289,20 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
         sink(key, l_free);
         return;
       }
-      double off_axis = 0.0;
+      double q = 0.0;  // tan(angle off the axis) / tan(half-angle)
       if (!on_axis) {
-        // tan of the angle between the axis and the voxel's part nearest to it; atan only when
-        // the voxel is in the cone's taper or near the return.
+        // tan of the angle between the axis and the voxel's part nearest to it; the model only
+        // when the voxel is in the cone's taper or near the return.
         const double tan_off = (std::sqrt(lateral_sq) - half_diagonal) / along;
         if (tan_off >= tan_half) return;  // outside the cone
         if (tan_off <= tan_full && along < off_axis_free_until) {
           sink(key, l_free);
           return;
         }
-        off_axis = std::atan(tan_off);
+        q = tan_off * inv_tan_half;
       }
-      const float value = beam.hit ? model_.hitUpdate(beam.length, along, off_axis, half_angle)
-                                   : model_.noReturnUpdate(beam.length, along, off_axis, half_angle);
+      const float value = beam.hit ? model_.hitUpdateInCone(beam.length, along, q, cone)
+                                   : model_.noReturnUpdateInCone(beam.length, along, q, cone);
       if (value != 0.0f) sink(key, value);
     };
     auto evaluate = [&](const octomap::OcTreeKey& key) __attribute__((always_inline)) {
