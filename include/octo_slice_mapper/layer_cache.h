@@ -76,15 +76,17 @@ class LayerCache {
     if (!slot) slot = std::make_unique<Tile>();
     const unsigned index = cellIndex(kx, ky);
     Cell& cell = slot->cells[index];
-    // Branch-free: whether a beam already reached this voxel in this scan is unpredictable.
+    // The evidence combined branch-free (whether it is the strongest so far is unpredictable);
+    // only a voxel's first evidence of the scan records it (beams overlap near the sensor).
     const bool fresh = cell.stamp != stamp_;
     cell.stamp = stamp_;
     const float pos = fresh ? 0.0f : cell.pos, neg = fresh ? 0.0f : cell.neg;
     cell.pos = value > pos ? value : pos;
     cell.neg = value < neg ? value : neg;
-    if (touched_count_ == touched_.size()) touched_.resize(2 * touched_.size() + 1024);
-    touched_[touched_count_] = {&cell, &slot->state[index], octomap::OcTreeKey(kx, ky, layer.z)};
-    touched_count_ += fresh;
+    if (fresh) {
+      if (touched_count_ == touched_.size()) touched_.resize(2 * touched_.size() + 1024);
+      touched_[touched_count_++] = {&cell, &slot->state[index], octomap::OcTreeKey(kx, ky, layer.z)};
+    }
   }
   // Applies the scan's combined evidence. Appends the keys whose log-odds changed to `changed`,
   // adds every voxel that received a non-zero update to `updated`, and returns how many did.

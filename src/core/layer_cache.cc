@@ -97,13 +97,22 @@ bool LayerCache::applyTo(const Ref& ref, float update) {
 
 std::size_t LayerCache::endScan(std::vector<octomap::OcTreeKey>* changed, KeyBox* updated) {
   std::size_t updates = 0;
+  // The box in locals: added to through the pointer, every bound would go back to memory per voxel.
+  unsigned lo[3] = {0xFFFF, 0xFFFF, 0xFFFF}, hi[3] = {0, 0, 0};
   for (std::size_t i = 0; i < touched_count_; ++i) {
     const Ref& ref = touched_[i];
     const float update = ref.cell->pos > 0.0f ? ref.cell->pos : ref.cell->neg;
     if (update == 0.0f) continue;
     ++updates;
-    if (updated) updated->add(ref.key);
+    for (int d = 0; d < 3; ++d) {
+      lo[d] = std::min<unsigned>(lo[d], ref.key[d]);
+      hi[d] = std::max<unsigned>(hi[d], ref.key[d]);
+    }
     if (applyTo(ref, update) && changed) changed->push_back(ref.key);
+  }
+  if (updated && updates > 0) {
+    updated->add(octomap::OcTreeKey(lo[0], lo[1], lo[2]));
+    updated->add(octomap::OcTreeKey(hi[0], hi[1], hi[2]));
   }
   touched_count_ = 0;
   return updates;

@@ -61,6 +61,9 @@ double number(const std::string& flag, const char* text) {
 
 Args parse(int argc, char** argv) {
   Args a;
+  // Nobody reads the octree until the end: one flush then writes each voxel once, instead of
+  // rewriting the voxels that keep changing every 20 000 updates (Intel: 0.69 -> 0.56 ms/scan).
+  a.mapper.max_unflushed_voxels = std::size_t{1} << 26;
   osm::InverseSensorModelOptions& m = a.mapper.insert.model;
   std::map<std::string, double*> numbers = {
       {"--resolution", &a.mapper.resolution},       {"--max-range", &a.mapper.insert.max_range},
