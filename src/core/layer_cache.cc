@@ -168,6 +168,12 @@ void LayerCache::flush() {
   }
   dirty_.clear();
   setValuesInTreeOrder(tree_, &flush_buffer_);
+  // A large one-off flush (offline mapping flushes once, at the end) must not keep its buffers.
+  constexpr std::size_t kKeepCapacity = std::size_t{1} << 16;
+  if (flush_buffer_.capacity() > kKeepCapacity) {
+    flush_buffer_ = {};
+    dirty_ = {};
+  }
 }
 
 void LayerCache::clear() {
