@@ -96,7 +96,14 @@ class InverseSensorModel {
   static constexpr int kStepsPerSigma = 256;
   static double freeShare(double u);
   static double lookup(const std::vector<double>& table, double u);
-  float tabulatedUpdate(const std::vector<double>& profile, double range, double along, double q,
+  // 1 + sigma_angle_gain * (share of the half-angle off the axis): the factor sigma widens by.
+  double widening(double off_axis, double half_angle) const;
+  double sigmaWidened(double range, double widen) const;
+  float profileUpdate(const std::vector<double>& profile, double reference, double along, double w,
+                      double sigma) const;
+  float directUpdate(const std::vector<double>& profile, double reference, double along, double off_axis,
+                     double half_angle) const;
+  float tabulatedUpdate(const std::vector<double>& profile, double reference, double along, double q,
                         const ConeTable& cone) const;
   std::vector<double> hit_profile_;   // hitProfileExact(u) on [kPureFreeBelow, kBehindCutoff]
   std::vector<double> free_profile_;  // l_free * F(u), the no-return profile

@@ -60,11 +60,17 @@ double InverseSensorModel::halfAngleFor(double angle_increment) const {
   return 0.5 * std::max(options_.beam_opening_angle, std::abs(angle_increment));
 }
 
-double InverseSensorModel::sigmaAt(double range, double off_axis, double half_angle) const {
-  double sigma = options_.sigma_base + options_.sigma_per_meter * range;
-  if (half_angle > 0.0) sigma *= 1.0 + options_.sigma_angle_gain * std::min(1.0, off_axis / half_angle);
+double InverseSensorModel::widening(double off_axis, double half_angle) const {
+  return half_angle > 0.0 ? 1.0 + options_.sigma_angle_gain * std::min(1.0, off_axis / half_angle) : 1.0;
+}
+
+double InverseSensorModel::sigmaWidened(double range, double widen) const {
   // The occupied peak can't be thinner than the voxel it has to land in.
-  return std::max(sigma, min_sigma_);
+  return std::max((options_.sigma_base + options_.sigma_per_meter * range) * widen, min_sigma_);
+}
+
+double InverseSensorModel::sigmaAt(double range, double off_axis, double half_angle) const {
+  return sigmaWidened(range, widening(off_axis, half_angle));
 }
 
 double InverseSensorModel::coneWeight(double off_axis, double half_angle) const {
@@ -84,51 +90,12 @@ double InverseSensorModel::coneWeight(double off_axis, double half_angle) const 
 //     reaches more than 2 sigma behind the obstacle (a long positive tail would add up over many
 //     scans and thicken every wall).
 float InverseSensorModel::hitUpdate(double range, double along, double off_axis, double half_angle) const {
-  const double w = coneWeight(off_axis, half_angle);
-  if (w <= 0.0 || along < 0.0) return 0.0f;
-  const double sigma = sigmaAt(range, off_axis, half_angle);
-  const double u = (along - range) / sigma;
-  if (u >= kBehindCutoff) return 0.0f;
-  // Deep in the free valley F = 1 and G = 0 to float precision.
-  if (u < kPureFreeBelow) return static_cast<float>(w * l_free_);
-  return static_cast<float>(w * lookup(hit_profile_, u));
+  return directUpdate(hit_profile_, range, along, off_axis, half_angle);
 }
 
 float InverseSensorModel::noReturnUpdate(double clear_distance, double along, double off_axis,
                                          double half_angle) const {
-  const double w = coneWeight(off_axis, half_angle);
-  if (w <= 0.0 || along < 0.0) return 0.0f;
-  const double sigma = sigmaAt(clear_distance, off_axis, half_angle);
-  const double u = (along - clear_distance) / sigma;
-  if (u >= kBehindCutoff) return 0.0f;
-  if (u < kPureFreeBelow) return static_cast<float>(w * l_free_);
-  return static_cast<float>(w * lookup(free_profile_, u));
-}
-
-InverseSensorModel::ConeTable::ConeTable(const InverseSensorModel& model, double half_angle)
-    : half_angle_(half_angle), tan_half_(std::tan(half_angle)), weight_(kSteps + 2), widen_(kSteps + 2) {
-  for (int i = 0; i <= kSteps + 1; ++i) {  // one past q = 1, so that interpolation never reads beyond
-    const double angle = std::atan(std::min(1.0, double(i) / kSteps) * tan_half_);
-    weight_[i] = static_cast<float>(i > kSteps ? 0.0 : model.coneWeight(angle, half_angle));
-    widen_[i] = static_cast<float>(
-        half_angle > 0.0 ? 1.0 + model.options_.sigma_angle_gain * std::min(1.0, angle / half_angle) : 1.0);
-  }
-}
-
-float InverseSensorModel::tabulatedUpdate(const std::vector<double>& profile, double range, double along, double q,
-                                          const ConeTable& cone) const {
-  if (!(q < 1.0) || along < 0.0) return 0.0f;
-  const double x = q * ConeTable::kSteps;
-  const int i = static_cast<int>(x);
-  const double f = x - i;
-  const double w = cone.weight_[i] + f * (cone.weight_[i + 1] - cone.weight_[i]);
-  if (w <= 0.0) return 0.0f;
-  const double widen = cone.widen_[i] + f * (cone.widen_[i + 1] - cone.widen_[i]);
-  const double sigma = std::max((options_.sigma_base + options_.sigma_per_meter * range) * widen, min_sigma_);
-  const double u = (along - range) / sigma;
-  if (u >= kBehindCutoff) return 0.0f;
-  if (u < kPureFreeBelow) return static_cast<float>(w * l_free_);
-  return static_cast<float>(w * lookup(profile, u));
+  return directUpdate(free_profile_, clear_distance, along, off_axis, half_angle);
 }
 
 float InverseSensorModel::hitUpdateInCone(double range, double along, double q, const ConeTable& cone) const {
@@ -138,6 +105,44 @@ float InverseSensorModel::hitUpdateInCone(double range, double along, double q, 
 float InverseSensorModel::noReturnUpdateInCone(double clear_distance, double along, double q,
                                                const ConeTable& cone) const {
   return tabulatedUpdate(free_profile_, clear_distance, along, q, cone);
+}
+
+// `profile` (the hit or the no-return one) at `along` for a beam ending at `reference`, weighted.
+float InverseSensorModel::profileUpdate(const std::vector<double>& profile, double reference, double along, double w,
+                                        double sigma) const {
+  const double u = (along - reference) / sigma;
+  if (u >= kBehindCutoff) return 0.0f;
+  // Deep in the free valley F = 1 and G = 0 to float precision.
+  if (u < kPureFreeBelow) return static_cast<float>(w * l_free_);
+  return static_cast<float>(w * lookup(profile, u));
+}
+
+float InverseSensorModel::directUpdate(const std::vector<double>& profile, double reference, double along,
+                                       double off_axis, double half_angle) const {
+  const double w = coneWeight(off_axis, half_angle);
+  if (w <= 0.0 || along < 0.0) return 0.0f;
+  return profileUpdate(profile, reference, along, w, sigmaAt(reference, off_axis, half_angle));
+}
+
+InverseSensorModel::ConeTable::ConeTable(const InverseSensorModel& model, double half_angle)
+    : half_angle_(half_angle), tan_half_(std::tan(half_angle)), weight_(kSteps + 1), widen_(kSteps + 1) {
+  for (int i = 0; i <= kSteps; ++i) {
+    const double angle = std::atan(double(i) / kSteps * tan_half_);
+    weight_[i] = static_cast<float>(model.coneWeight(angle, half_angle));  // 0 at the edge, q = 1
+    widen_[i] = static_cast<float>(model.widening(angle, half_angle));
+  }
+}
+
+float InverseSensorModel::tabulatedUpdate(const std::vector<double>& profile, double reference, double along,
+                                          double q, const ConeTable& cone) const {
+  if (!(q < 1.0) || along < 0.0) return 0.0f;
+  const double x = q * ConeTable::kSteps;
+  const int i = static_cast<int>(x);  // < kSteps, so i + 1 is in the table
+  const double f = x - i;
+  const double w = cone.weight_[i] + f * (cone.weight_[i + 1] - cone.weight_[i]);
+  if (w <= 0.0) return 0.0f;
+  const double widen = cone.widen_[i] + f * (cone.widen_[i + 1] - cone.widen_[i]);
+  return profileUpdate(profile, reference, along, w, sigmaWidened(reference, widen));
 }
 
 }  // namespace octo_slice_mapper

@@ -7,9 +7,7 @@ namespace octo_slice_mapper {
 LayerCache::LayerCache(octomap::OcTree* tree) : tree_(tree) {}
 
 LayerCache::Layer& LayerCache::layer(std::uint16_t z) {
-  for (const auto& l : layers_) {
-    if (l->z == z) return *l;
-  }
+  if (const Layer* found = findLayer(z)) return *const_cast<Layer*>(found);  // ours: layers_ owns it
   layers_.push_back(std::make_unique<Layer>());
   layers_.back()->z = z;
   return *layers_.back();
