@@ -93,17 +93,19 @@ class ScanInserter {
   InsertResult insertLevel(const Eigen::Vector3d& origin, const std::vector<Beam>& beams, double half_angle,
                            InsertResult result);
   KeyBox prepareBeams(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
-                      const std::vector<Beam>& beams, double tan_half, std::vector<char>* usable);
+                      const std::vector<Beam>& beams, double tan_half);
   template <typename Sink>
   void traceBeams(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key, const std::vector<Beam>& beams,
-                  const std::vector<char>& usable, double half_angle, Sink&& sink);
+                  double half_angle, Sink&& sink);
   void accumulate(const octomap::OcTreeKey& key, float value);
   double traceLength(const Beam& beam) const;
   struct Ray {
     Eigen::Vector3d direction;
     double start;  // distance from the origin where it starts
     bool axis;
+    octomap::OcTreeKey far_key;  // of its end, where the beam's trace ends
   };
+  // Appends the beam's rays to `rays`.
   void fanOf(const Beam& beam, double tan_half, std::vector<Ray>* rays) const;
   bool inWindow(const octomap::OcTreeKey& key) const;  // false in sparse mode
   std::size_t windowIndex(const octomap::OcTreeKey& key) const;
@@ -124,7 +126,8 @@ class ScanInserter {
   std::unordered_map<octomap::OcTreeKey, std::int32_t, octomap::OcTreeKey::KeyHash> sparse_;
   octomap::OcTreeKey window_lo_;
   int window_nx_ = 0, window_ny_ = 0, window_nz_ = 0;
-  std::vector<Ray> fan_;  // scratch: one beam's rays
+  std::vector<Ray> rays_;               // the current scan's rays (prepareBeams)
+  std::vector<std::size_t> ray_begin_;  // beam b's are rays_[ray_begin_[b], ray_begin_[b + 1])
   std::optional<InverseSensorModel::ConeTable> cone_;  // for the last half-angle seen
 
   LayerCache cache_;

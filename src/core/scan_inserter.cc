@@ -216,7 +216,6 @@ __attribute__((always_inline)) inline void ScanInserter::accumulate(const octoma
 // across the cone in the scan plane, at most one voxel apart at the far end. A fanned ray starts
 // where it is half a voxel off the axis: closer in, the axis' voxels cover the cone.
 void ScanInserter::fanOf(const Beam& beam, double tan_half, std::vector<Ray>* rays) const {
-  rays->clear();
   const double resolution = tree_->getResolution();
   const double half_width = traceLength(beam) * tan_half;
   // Bounded: an absurd reading (3e38 m under range_max = FLT_MAX) must not overflow the count;
@@ -228,41 +227,46 @@ void ScanInserter::fanOf(const Beam& beam, double tan_half, std::vector<Ray>* ra
   for (int k = -fan; k <= fan; ++k) {
     const double t = fan ? tan_half * k / fan : 0.0;
     const double start = k == 0 ? 0.0 : 0.5 * resolution * std::sqrt(1.0 + t * t) / std::abs(t);
-    rays->push_back({(beam.direction + t * beam.across).normalized(), start, k == 0});
+    rays->push_back({(beam.direction + t * beam.across).normalized(), start, k == 0, octomap::OcTreeKey(0, 0, 0)});  // key set by the caller
   }
 }
 
-// First pass over a scan's beams: which stay inside the octree's key range (`usable`), and the key
-// box of all ray ends (rays are straight, so the box of the origin and the ends holds every voxel
-// they cross).
+// First pass over a scan's beams: their rays with the keys of their far ends (rays_, beam b's from
+// ray_begin_[b] to ray_begin_[b + 1]; none for a beam that leaves the octree's key range), and the
+// key box of all ray ends (rays are straight, so the box of the origin and the ends holds every
+// voxel they cross).
 KeyBox ScanInserter::prepareBeams(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
-                                  const std::vector<Beam>& beams, double tan_half, std::vector<char>* usable) {
-  usable->assign(beams.size(), 0);
+                                  const std::vector<Beam>& beams, double tan_half) {
+  rays_.clear();
+  ray_begin_.assign(1, 0);
   KeyBox box;
   box.add(origin_key);
-  for (std::size_t b = 0; b < beams.size(); ++b) {
-    fanOf(beams[b], tan_half, &fan_);
+  for (const Beam& beam : beams) {
+    const std::size_t first = rays_.size();
+    fanOf(beam, tan_half, &rays_);
     KeyBox beam_box;
     bool inside = true;
-    for (const Ray& ray : fan_) {  // the arc of ends bulges past the outer rays' chord
-      const Eigen::Vector3d end = origin + ray.direction * traceLength(beams[b]);
-      octomap::OcTreeKey key;
-      inside = inside && coordToKeySafe(*tree_, end.x(), end.y(), end.z(), &key);
-      if (inside) beam_box.add(key);
+    // Every ray's end: the arc of ends bulges past the outer rays' chord.
+    for (std::size_t r = first; r < rays_.size() && inside; ++r) {
+      const Eigen::Vector3d end = origin + rays_[r].direction * traceLength(beam);
+      inside = coordToKeySafe(*tree_, end.x(), end.y(), end.z(), &rays_[r].far_key);
+      if (inside) beam_box.add(rays_[r].far_key);
     }
-    if (!inside) continue;
-    (*usable)[b] = 1;
-    box.add(beam_box);
+    if (inside) {
+      box.add(beam_box);
+    } else {
+      rays_.resize(first);
+    }
+    ray_begin_.push_back(rays_.size());
   }
   return box;
 }
 
-// Second pass: every voxel each usable beam reaches, with the model's evidence for it, handed to
+// Second pass: every voxel each beam kept by prepareBeams reaches, with the model's evidence for it, handed to
 // `sink(key, value)` (zero evidence is not handed on).
 template <typename Sink>
 void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
-                              const std::vector<Beam>& beams, const std::vector<char>& usable, double half_angle,
-                              Sink&& sink) {
+                              const std::vector<Beam>& beams, double half_angle, Sink&& sink) {
   if (!cone_ || cone_->halfAngle() != half_angle) cone_.emplace(model_, half_angle);
   const InverseSensorModel::ConeTable& cone = *cone_;
   const double tan_half = cone.tanHalf(), inv_tan_half = 1.0 / tan_half;
@@ -272,7 +276,7 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
   const double half_diagonal_sq = half_diagonal * half_diagonal;
   const float l_free = model_.logOddsFree();
   for (std::size_t b = 0; b < beams.size(); ++b) {
-    if (!usable[b]) continue;
+    if (ray_begin_[b] == ray_begin_[b + 1]) continue;  // left the octree
     const Beam& beam = beams[b];
     const double length = traceLength(beam);
     // On the axis, closer than this the model is exactly the free valley (see hitUpdate).
@@ -338,14 +342,14 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
     };
     // Scan beams of a level scan: the axis and `across` lie in the plane.
     const bool level_beam = beam.direction.z() == 0.0 && beam.across.z() == 0.0 && !beam.across.isZero();
-    fanOf(beam, tan_half, &fan_);
-    for (const Ray& ray : fan_) {
+    for (std::size_t r = ray_begin_[b]; r < ray_begin_[b + 1]; ++r) {
+      const Ray& ray = rays_[r];
       if (ray.start >= length) continue;
       const Eigen::Vector3d from = origin + ray.direction * ray.start;
       const Eigen::Vector3d far = origin + ray.direction * length;
-      octomap::OcTreeKey from_key = origin_key, far_key;
+      const octomap::OcTreeKey& far_key = ray.far_key;
+      octomap::OcTreeKey from_key = origin_key;
       if (ray.start > 0.0 && !coordToKeySafe(*tree_, from.x(), from.y(), from.z(), &from_key)) continue;
-      if (!coordToKeySafe(*tree_, far.x(), far.y(), far.z(), &far_key)) continue;  // checked in the first pass
       if (level_beam) {  // its rays stay in the origin's layer: from.z == far.z exactly
         if (ray.axis) {
           traverseLevel(*tree_, from, far, from_key, far_key, visitor(std::true_type(), evaluate_level));
@@ -367,12 +371,11 @@ std::vector<KeyUpdate> ScanInserter::computeUpdates(const Eigen::Vector3d& origi
   std::vector<KeyUpdate> updates;
   octomap::OcTreeKey origin_key;
   if (!coordToKeySafe(*tree_, origin.x(), origin.y(), origin.z(), &origin_key)) return updates;
-  std::vector<char> usable;
-  const KeyBox box = prepareBeams(origin, origin_key, beams, std::tan(half_angle), &usable);
+  const KeyBox box = prepareBeams(origin, origin_key, beams, std::tan(half_angle));
   prepareWindow(box.min, box.max);
   slots_.clear();
   sparse_.clear();
-  traceBeams(origin, origin_key, beams, usable, half_angle,
+  traceBeams(origin, origin_key, beams, half_angle,
              [this](const octomap::OcTreeKey& key, float value) __attribute__((always_inline)) {
                accumulate(key, value);
              });
@@ -392,9 +395,8 @@ void ScanInserter::traceEvidence(const Scan& scan, const std::function<void(cons
   octomap::OcTreeKey origin_key;
   if (!coordToKeySafe(*tree_, origin.x(), origin.y(), origin.z(), &origin_key)) return;
   const double half_angle = model_.halfAngleFor(scan.angle_increment);
-  std::vector<char> usable;
-  prepareBeams(origin, origin_key, beams, std::tan(half_angle), &usable);
-  traceBeams(origin, origin_key, beams, usable, half_angle, fn);
+  prepareBeams(origin, origin_key, beams, std::tan(half_angle));
+  traceBeams(origin, origin_key, beams, half_angle, fn);
 }
 
 // A level scan (the sensor's x-y plane horizontal) stays in the layer of its origin: every beam,
@@ -403,12 +405,11 @@ InsertResult ScanInserter::insertLevel(const Eigen::Vector3d& origin, const std:
                                        double half_angle, InsertResult result) {
   octomap::OcTreeKey origin_key;
   if (!coordToKeySafe(*tree_, origin.x(), origin.y(), origin.z(), &origin_key)) return result;
-  std::vector<char> usable;
-  const KeyBox box = prepareBeams(origin, origin_key, beams, std::tan(half_angle), &usable);
+  const KeyBox box = prepareBeams(origin, origin_key, beams, std::tan(half_angle));
   LayerCache::Layer& layer = cache_.layer(origin_key[2]);
   cache_.cover(&layer, box.min[0], box.min[1], box.max[0], box.max[1]);
   cache_.beginScan();
-  traceBeams(origin, origin_key, beams, usable, half_angle,
+  traceBeams(origin, origin_key, beams, half_angle,
              [this, &layer](const octomap::OcTreeKey& key, float value) __attribute__((always_inline)) {
                cache_.add(layer, key[0], key[1], value);  // a level scan's keys are all in its layer
              });
