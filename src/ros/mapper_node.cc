@@ -372,7 +372,10 @@ void MapperNode::applyOptimizedToMap(const GridImage& grid) {
   // In strips of rows, each under the lock on its own, so that scans are inserted in between.
   const int rows = std::max(1, 4096 / std::max(1, grid.width));
   for (int j0 = 0; j0 < grid.height; j0 += rows) {
-    GridImage strip = grid;
+    GridImage strip;  // not a copy of `grid`: that would copy all its cells once per strip
+    strip.width = grid.width;
+    strip.resolution = grid.resolution;
+    strip.origin_x = grid.origin_x;
     strip.height = std::min(rows, grid.height - j0);
     strip.origin_y = grid.origin_y + j0 * grid.resolution;
     strip.cells.assign(grid.cells.begin() + std::size_t(j0) * grid.width,
