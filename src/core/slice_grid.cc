@@ -80,30 +80,19 @@ const octomap::OcTreeNode* SliceGrid::bandVoxel(const octomap::OcTreeNode* top, 
 std::int8_t SliceGrid::columnValue(std::uint16_t kx, std::uint16_t ky) const {
   const octomap::OcTreeNode* top = tree_.search(octomap::OcTreeKey(kx, ky, band_lo_), band_common_depth_);
   double best = -1.0;
-  if (!cache_ || cache_->empty()) {
-    if (!top) return kUnknownCell;
-    if (!tree_.nodeHasChildren(top)) {
-      best = top->getOccupancy();  // a leaf (possibly pruned) covering the whole band
-    } else {
-      for (unsigned kz = band_lo_; kz <= band_hi_; ++kz) {
-        if (const octomap::OcTreeNode* node = bandVoxel(top, kx, ky, kz)) best = std::max(best, node->getOccupancy());
-      }
-    }
-  } else {
-    for (unsigned kz = band_lo_; kz <= band_hi_; ++kz) {
-      float log_odds = 0.0f;
-      switch (cache_->lookup(kx, ky, kz, &log_odds)) {
-        case LayerCache::Lookup::kKnown:
-          best = std::max(best, octomap::probability(log_odds));
-          break;
-        case LayerCache::Lookup::kUnknown:
-          break;
-        case LayerCache::Lookup::kNotCached:
-          if (const octomap::OcTreeNode* node = top ? bandVoxel(top, kx, ky, kz) : nullptr) {
-            best = std::max(best, node->getOccupancy());
-          }
-          break;
-      }
+  for (unsigned kz = band_lo_; kz <= band_hi_; ++kz) {
+    float log_odds = 0.0f;
+    switch (cache_ ? cache_->lookup(kx, ky, kz, &log_odds) : LayerCache::Lookup::kNotCached) {
+      case LayerCache::Lookup::kKnown:
+        best = std::max(best, octomap::probability(log_odds));
+        break;
+      case LayerCache::Lookup::kUnknown:
+        break;
+      case LayerCache::Lookup::kNotCached:  // the tree is current for it (a pruned leaf may hold the whole band)
+        if (const octomap::OcTreeNode* node = top ? bandVoxel(top, kx, ky, kz) : nullptr) {
+          best = std::max(best, node->getOccupancy());
+        }
+        break;
     }
   }
   if (best < 0.0) return kUnknownCell;
