@@ -137,24 +137,22 @@ TEST(LayerCache, RepeatsUpdateNodeArithmeticPerVoxel) {
   expectSameTree(cached, reference);
 }
 
-TEST(LayerCache, CombinesEvidencePerScanBeforeApplying) {
-  octomap::OcTree tree(0.1), reference(0.1);
+// A tile over ground the octree holds nothing of starts as known-unknown (no search per voxel);
+// one next to existing nodes reads them.
+TEST(LayerCache, NewTileKnowsWhatTheOctreeHolds) {
+  octomap::OcTree tree(0.1);
+  const octomap::OcTreeKey seen = tree.coordToKey(0.05, 0.05, 0.05);
+  tree.setNodeValue(seen, 1.0f);
   LayerCache cache(&tree);
-  const octomap::OcTreeKey key = tree.coordToKey(1.0, 1.0, 0.25);
-  LayerCache::Layer& layer = cache.layer(key[2]);
-  cache.cover(&layer, key[0], key[1], key[0], key[1]);
-  cache.beginScan();
-  cache.add(layer, key[0], key[1], -0.4f);
-  cache.add(layer, key[0], key[1], 0.7f);  // occupied evidence wins over a beam passing by
-  cache.add(layer, key[0], key[1], 0.3f);
-  std::vector<octomap::OcTreeKey> changed;
-  KeyBox updated;
-  EXPECT_EQ(cache.endScan(&changed, &updated), 1u);
-  EXPECT_FALSE(updated.empty());
-  ASSERT_EQ(changed.size(), 1u);
-  cache.flush();
-  reference.updateNode(key, 0.7f);
-  expectSameTree(tree, reference);
+  const octomap::OcTreeKey next(seen[0] + 1, seen[1], seen[2]), far(seen[0] + 640, seen[1], seen[2]);
+  ASSERT_TRUE(cache.apply(next, 0.5f));
+  ASSERT_TRUE(cache.apply(far, 0.5f));
+  float value = 0.0f;
+  EXPECT_EQ(cache.lookup(seen[0], seen[1], seen[2], &value), LayerCache::Lookup::kNotCached);
+  EXPECT_EQ(cache.lookup(far[0] + 1, far[1], far[2], &value), LayerCache::Lookup::kUnknown);
+  ASSERT_TRUE(cache.apply(seen, 0.5f));
+  ASSERT_EQ(cache.lookup(seen[0], seen[1], seen[2], &value), LayerCache::Lookup::kKnown);
+  EXPECT_EQ(value, 1.5f) << "the octree's value was loaded before the update";
 }
 
 // The Mapper reads through the cache: its slice equals one rebuilt from the flushed tree, and

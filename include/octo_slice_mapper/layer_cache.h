@@ -9,7 +9,6 @@
 #include <memory>
 #include <vector>
 
-#include "octo_slice_mapper/key_box.h"
 #include "octo_slice_mapper/octree_batch_update.h"
 
 namespace octo_slice_mapper {
@@ -18,25 +17,16 @@ namespace octo_slice_mapper {
 // after the same updates: the per-voxel arithmetic of OctoMap's updateNode (early out at a
 // clamping bound, float add, clamp) is repeated on the cached value, so flushing the values
 // gives the same octree as calling updateNode for every update.
-//
-// Use per scan: beginScan(), add() for every (voxel, evidence) the beams produce, then
-// endScan(), which combines each voxel's evidence of the scan and applies it.
 class LayerCache {
  public:
   static constexpr unsigned kTileBits = 6;  // 64 x 64 voxels per tile
   static constexpr unsigned kTileSize = 1u << kTileBits;
   static constexpr unsigned kTileMask = kTileSize - 1;
 
-  struct Cell {
-    float value = 0.0f;  // log-odds, valid once loaded
-    float pos = 0.0f;    // this scan's strongest occupied evidence
-    float neg = 0.0f;    // and strongest free evidence
-    std::uint32_t stamp = 0;  // the scan pos / neg belong to
-  };
   // Cell states; kDirty is or-ed in while the octree lags behind the cached value.
   enum : std::uint8_t { kUnloaded = 0, kUnknown = 1, kKnown = 2, kLoadMask = 3, kDirty = 4 };
   struct Tile {
-    Cell cells[kTileSize * kTileSize];
+    float value[kTileSize * kTileSize];  // log-odds, valid when kKnown
     std::uint8_t state[kTileSize * kTileSize] = {};
   };
   // A dense directory of tiles over a rectangle of tile coordinates that grows as needed.
@@ -65,35 +55,23 @@ class LayerCache {
   Layer& layer(std::uint16_t z);
   const Layer* findLayer(std::uint16_t z) const;
   bool empty() const { return layers_.empty(); }
-  // Grows `layer`'s directory to cover the key rectangle (call before add() in it).
+  // Grows `layer`'s directory to cover the key rectangle (call before apply() in it).
   void cover(Layer* layer, unsigned kx0, unsigned ky0, unsigned kx1, unsigned ky1);
 
-  void beginScan();
-  // Evidence `value` of the current scan for voxel (kx, ky) of `layer`, which must cover it.
-  // Per voxel and scan the largest positive evidence wins, else the most negative one.
-  __attribute__((always_inline)) inline void add(Layer& layer, unsigned kx, unsigned ky, float value) {
+  // One update of voxel (kx, ky) of `layer`, which must cover it; false if the value did not change.
+  __attribute__((always_inline)) inline bool apply(Layer& layer, unsigned kx, unsigned ky, float update) {
     std::unique_ptr<Tile>& slot = layer.slot(kx, ky);
-    if (!slot) slot = std::make_unique<Tile>();
+    if (!slot) slot = newTile(layer.z, kx, ky);
     const unsigned index = cellIndex(kx, ky);
-    Cell& cell = slot->cells[index];
-    // The evidence combined branch-free (whether it is the strongest so far is unpredictable);
-    // only a voxel's first evidence of the scan records it (beams overlap near the sensor).
-    const bool fresh = cell.stamp != stamp_;
-    cell.stamp = stamp_;
-    const float pos = fresh ? 0.0f : cell.pos, neg = fresh ? 0.0f : cell.neg;
-    cell.pos = value > pos ? value : pos;
-    cell.neg = value < neg ? value : neg;
-    if (fresh) {
-      if (touched_count_ == touched_.size()) touched_.resize(2 * touched_.size() + 1024);
-      touched_[touched_count_++] = {&cell, &slot->state[index], octomap::OcTreeKey(kx, ky, layer.z)};
+    // Most updates of a mapped area push a voxel already at its bound (free space seen again):
+    // updateNode's early out, decided here without a call.
+    if (slot->state[index] & kKnown) {
+      const float old = slot->value[index];
+      if (update >= 0.0f ? old >= tree_->getClampingThresMaxLog() : old <= tree_->getClampingThresMinLog()) return false;
     }
+    return applyTo({&slot->value[index], &slot->state[index], octomap::OcTreeKey(kx, ky, layer.z)}, update);
   }
-  // Applies the scan's combined evidence. Appends the keys whose log-odds changed to `changed`,
-  // adds every voxel that received a non-zero update to `updated`, and returns how many did.
-  std::size_t endScan(std::vector<octomap::OcTreeKey>* changed, KeyBox* updated);
-
-  // One update of a voxel in a cached layer (for updates computed elsewhere); false if the
-  // value did not change.
+  // The same for a voxel of any layer (cached from now on).
   bool apply(const octomap::OcTreeKey& key, float update);
 
   // Log-odds of a voxel of a cached layer: kNotCached when its layer is not cached or the voxel
@@ -113,19 +91,16 @@ class LayerCache {
 
  private:
   struct Ref {
-    Cell* cell = nullptr;
+    float* value = nullptr;
     std::uint8_t* state = nullptr;
     octomap::OcTreeKey key;
   };
-  Cell* cellFor(const octomap::OcTreeKey& key, std::uint8_t** state);
+  std::unique_ptr<Tile> newTile(std::uint16_t z, unsigned kx, unsigned ky) const;
   bool applyTo(const Ref& ref, float update);
 
   octomap::OcTree* tree_;
   std::vector<std::unique_ptr<Layer>> layers_;
-  std::uint32_t stamp_ = 0;
-  std::vector<Ref> touched_;  // voxels with evidence in the current scan: the first touched_count_
-  std::size_t touched_count_ = 0;
-  std::vector<Ref> dirty_;    // voxels the octree lags behind
+  std::vector<Ref> dirty_;  // voxels the octree lags behind
   std::vector<KeyUpdate> flush_buffer_;
 };
 

@@ -7,7 +7,6 @@
 #include <cstdint>
 #include <functional>
 #include <optional>
-#include <unordered_map>
 #include <vector>
 
 #include "octo_slice_mapper/inverse_sensor_model.h"
@@ -15,6 +14,7 @@
 #include "octo_slice_mapper/layer_cache.h"
 #include "octo_slice_mapper/octree_batch_update.h"
 #include "octo_slice_mapper/scan.h"
+#include "octo_slice_mapper/scan_evidence.h"
 
 namespace octo_slice_mapper {
 
@@ -87,6 +87,8 @@ class ScanInserter {
   void dropCache() { cache_.clear(); }
   void forgetCached(const octomap::OcTreeKey& key) { cache_.forget(key); }
   const LayerCache& cache() const { return cache_; }
+  // What the inserter holds besides the octree: the layer cache and the per-scan evidence window.
+  std::size_t memoryBytes() const { return cache_.memoryBytes() + evidence_.memoryBytes(); }
 
  private:
   InsertResult apply(std::vector<KeyUpdate> updates, InsertResult result);
@@ -97,7 +99,6 @@ class ScanInserter {
   template <typename Sink>
   void traceBeams(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key, const std::vector<Beam>& beams,
                   double half_angle, Sink&& sink);
-  void accumulate(const octomap::OcTreeKey& key, float value);
   double traceLength(const Beam& beam) const;
   struct Ray {
     Eigen::Vector3d direction;
@@ -107,25 +108,12 @@ class ScanInserter {
   };
   // Appends the beam's rays to `rays`.
   void fanOf(const Beam& beam, double tan_half, std::vector<Ray>* rays) const;
-  bool inWindow(const octomap::OcTreeKey& key) const;  // false in sparse mode
-  std::size_t windowIndex(const octomap::OcTreeKey& key) const;
-  void prepareWindow(const octomap::OcTreeKey& lo, const octomap::OcTreeKey& hi);
 
   octomap::OcTree* tree_;
   InsertOptions options_;
   InverseSensorModel model_;
 
-  // Per-scan accumulation: a dense window over the scan's key bounding box maps a key to a slot.
-  struct Slot {
-    octomap::OcTreeKey key;
-    float positive;  // largest occupied evidence
-    float negative;  // strongest free evidence
-  };
-  std::vector<Slot> slots_;
-  std::vector<std::int32_t> window_;  // slot index or -1
-  std::unordered_map<octomap::OcTreeKey, std::int32_t, octomap::OcTreeKey::KeyHash> sparse_;
-  octomap::OcTreeKey window_lo_;
-  int window_nx_ = 0, window_ny_ = 0, window_nz_ = 0;
+  ScanEvidence evidence_;               // the current scan's combined evidence
   std::vector<Ray> rays_;               // the current scan's rays (prepareBeams)
   std::vector<std::size_t> ray_begin_;  // beam b's are rays_[ray_begin_[b], ray_begin_[b + 1])
   std::optional<InverseSensorModel::ConeTable> cone_;  // for the last half-angle seen

@@ -49,18 +49,13 @@ void LayerCache::cover(Layer* l, unsigned kx0, unsigned ky0, unsigned kx1, unsig
   l->tx0 = nx0, l->ty0 = ny0, l->ntx = w, l->nty = h;
 }
 
-void LayerCache::beginScan() {
-  touched_count_ = 0;
-  if (++stamp_ == 0) {  // wrapped: old stamps could look current
-    for (const auto& l : layers_) {
-      for (const auto& t : l->tiles) {
-        if (t) {
-          for (Cell& c : t->cells) c.stamp = 0;
-        }
-      }
-    }
-    stamp_ = 1;
-  }
+// A tile whose 64 x 64 voxels the octree holds none of (no node at the depth that spans them;
+// typical while mapping new ground) starts all kUnknown: one search instead of one per voxel.
+std::unique_ptr<LayerCache::Tile> LayerCache::newTile(std::uint16_t z, unsigned kx, unsigned ky) const {
+  auto tile = std::make_unique<Tile>();
+  const unsigned depth = tree_->getTreeDepth() - kTileBits;
+  if (!tree_->search(octomap::OcTreeKey(kx, ky, z), depth)) std::fill(std::begin(tile->state), std::end(tile->state), kUnknown);
+  return tile;
 }
 
 // The arithmetic of OccupancyOcTreeBase::updateNode on one voxel: a voxel the octree does not
@@ -70,13 +65,13 @@ bool LayerCache::applyTo(const Ref& ref, float update) {
   std::uint8_t& state = *ref.state;
   if ((state & kLoadMask) == kUnloaded) {
     const octomap::OcTreeNode* node = tree_->search(ref.key);
-    if (node) ref.cell->value = node->getLogOdds();
+    if (node) *ref.value = node->getLogOdds();
     state = static_cast<std::uint8_t>((state & ~kLoadMask) | (node ? kKnown : kUnknown));
   }
   const float lo = tree_->getClampingThresMinLog(), hi = tree_->getClampingThresMaxLog();
   float value = 0.0f;
   if ((state & kLoadMask) == kKnown) {
-    const float old = ref.cell->value;
+    const float old = *ref.value;
     if ((update >= 0.0f && old >= hi) || (update <= 0.0f && old <= lo)) return false;
     value = old;
   }
@@ -86,52 +81,18 @@ bool LayerCache::applyTo(const Ref& ref, float update) {
   } else if (value > hi) {
     value = hi;
   }
-  if ((state & kLoadMask) == kKnown && value == ref.cell->value) return false;
-  ref.cell->value = value;
+  if ((state & kLoadMask) == kKnown && value == *ref.value) return false;
+  *ref.value = value;
   if (!(state & kDirty)) dirty_.push_back(ref);
   state = kKnown | kDirty;
   return true;
 }
 
-std::size_t LayerCache::endScan(std::vector<octomap::OcTreeKey>* changed, KeyBox* updated) {
-  std::size_t updates = 0;
-  // The box in locals: added to through the pointer, every bound would go back to memory per voxel.
-  unsigned lo[3] = {0xFFFF, 0xFFFF, 0xFFFF}, hi[3] = {0, 0, 0};
-  for (std::size_t i = 0; i < touched_count_; ++i) {
-    const Ref& ref = touched_[i];
-    const float update = ref.cell->pos > 0.0f ? ref.cell->pos : ref.cell->neg;
-    if (update == 0.0f) continue;
-    ++updates;
-    for (int d = 0; d < 3; ++d) {
-      lo[d] = std::min<unsigned>(lo[d], ref.key[d]);
-      hi[d] = std::max<unsigned>(hi[d], ref.key[d]);
-    }
-    if (applyTo(ref, update) && changed) changed->push_back(ref.key);
-  }
-  if (updated && updates > 0) {
-    updated->add(octomap::OcTreeKey(lo[0], lo[1], lo[2]));
-    updated->add(octomap::OcTreeKey(hi[0], hi[1], hi[2]));
-  }
-  touched_count_ = 0;
-  return updates;
-}
-
-LayerCache::Cell* LayerCache::cellFor(const octomap::OcTreeKey& key, std::uint8_t** state) {
+bool LayerCache::apply(const octomap::OcTreeKey& key, float update) {
   Layer& l = layer(key[2]);
   cover(&l, key[0], key[1], key[0], key[1]);
-  std::unique_ptr<Tile>& slot = l.slot(key[0], key[1]);
-  if (!slot) slot = std::make_unique<Tile>();
-  const unsigned index = cellIndex(key[0], key[1]);
-  *state = &slot->state[index];
-  return &slot->cells[index];
+  return apply(l, key[0], key[1], update);
 }
-
-bool LayerCache::apply(const octomap::OcTreeKey& key, float update) {
-  std::uint8_t* state = nullptr;
-  Cell* cell = cellFor(key, &state);
-  return applyTo({cell, state, key}, update);
-}
-
 LayerCache::Lookup LayerCache::lookup(unsigned kx, unsigned ky, unsigned kz, float* value) const {
   const Layer* l = findLayer(static_cast<std::uint16_t>(kz));
   const Tile* tile = l ? l->tile(kx, ky) : nullptr;
@@ -139,7 +100,7 @@ LayerCache::Lookup LayerCache::lookup(unsigned kx, unsigned ky, unsigned kz, flo
   const unsigned index = cellIndex(kx, ky);
   switch (tile->state[index] & kLoadMask) {
     case kKnown:
-      *value = tile->cells[index].value;
+      *value = tile->value[index];
       return Lookup::kKnown;
     case kUnknown:
       return Lookup::kUnknown;
@@ -161,7 +122,7 @@ void LayerCache::flush() {
   flush_buffer_.clear();
   flush_buffer_.reserve(dirty_.size());
   for (const Ref& ref : dirty_) {
-    flush_buffer_.push_back({ref.key, ref.cell->value});
+    flush_buffer_.push_back({ref.key, *ref.value});
     *ref.state = static_cast<std::uint8_t>(*ref.state & ~kDirty);
   }
   dirty_.clear();
@@ -176,12 +137,11 @@ void LayerCache::flush() {
 
 void LayerCache::clear() {
   layers_.clear();
-  touched_count_ = 0;
   dirty_.clear();
 }
 
 std::size_t LayerCache::memoryBytes() const {
-  std::size_t bytes = sizeof(*this) + (touched_.capacity() + dirty_.capacity()) * sizeof(Ref) +
+  std::size_t bytes = sizeof(*this) + dirty_.capacity() * sizeof(Ref) +
                       flush_buffer_.capacity() * sizeof(KeyUpdate);
   for (const auto& l : layers_) {
     bytes += sizeof(Layer) + l->tiles.capacity() * sizeof(std::unique_ptr<Tile>);

@@ -4,12 +4,10 @@
 #include <cmath>
 #include <limits>
 #include <type_traits>
+#include <unordered_map>
 
 namespace octo_slice_mapper {
 namespace {
-// Above this many cells the dense window would cost more memory than it saves (e.g. 80 m returns
-// at 0.02 m); such scans use a hash map instead.
-constexpr std::size_t kMaxWindowCells = std::size_t{16} << 20;
 // Visits, in order, the voxels the segment from `from` to `to` crosses (Amanatides & Woo), from
 // the voxel of `from` to the voxel of `to`, both included, as visit(key, t_exit): t_exit is where
 // (as a fraction of the segment) it leaves the voxel. Inline, so nothing is stored per step.
@@ -172,46 +170,6 @@ double ScanInserter::traceLength(const Beam& beam) const {
   return beam.hit ? beam.length + model_.traceMargin(beam.length) : beam.length;
 }
 
-void ScanInserter::prepareWindow(const octomap::OcTreeKey& lo, const octomap::OcTreeKey& hi) {
-  window_lo_ = lo;
-  window_nx_ = hi[0] - lo[0] + 1;
-  window_ny_ = hi[1] - lo[1] + 1;
-  window_nz_ = hi[2] - lo[2] + 1;
-  const std::size_t cells = std::size_t(window_nx_) * window_ny_ * window_nz_;
-  if (cells > kMaxWindowCells) {
-    window_nx_ = 0;  // sparse mode
-    return;
-  }
-  if (window_.size() < cells) window_.assign(cells, -1);
-}
-
-// Per visited voxel: forced inline, a call each costs more than the work (measured with callgrind).
-__attribute__((always_inline)) inline bool ScanInserter::inWindow(const octomap::OcTreeKey& key) const {
-  return window_nx_ > 0 && key[0] >= window_lo_[0] && key[1] >= window_lo_[1] && key[2] >= window_lo_[2] &&
-         key[0] - window_lo_[0] < window_nx_ && key[1] - window_lo_[1] < window_ny_ && key[2] - window_lo_[2] < window_nz_;
-}
-
-__attribute__((always_inline)) inline std::size_t ScanInserter::windowIndex(const octomap::OcTreeKey& key) const {
-  return (std::size_t(key[2] - window_lo_[2]) * window_ny_ + (key[1] - window_lo_[1])) * window_nx_ +
-         (key[0] - window_lo_[0]);
-}
-
-__attribute__((always_inline)) inline void ScanInserter::accumulate(const octomap::OcTreeKey& key, float value) {
-  std::int32_t* slot_ref = nullptr;
-  if (inWindow(key)) {
-    slot_ref = &window_[windowIndex(key)];
-  } else {
-    slot_ref = &sparse_.emplace(key, -1).first->second;
-  }
-  if (*slot_ref < 0) {
-    *slot_ref = static_cast<std::int32_t>(slots_.size());
-    slots_.push_back({key, 0.0f, 0.0f});
-  }
-  Slot& slot = slots_[*slot_ref];
-  if (value > slot.positive) slot.positive = value;
-  if (value < slot.negative) slot.negative = value;
-}
-
 // The rays traced for one beam: its axis and, where the cone is wider than a voxel, rays fanned
 // across the cone in the scan plane, at most one voxel apart at the far end. A fanned ray starts
 // where it is half a voxel off the axis: closer in, the axis' voxels cover the cone.
@@ -275,6 +233,8 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
   const double half_diagonal = 0.5 * std::sqrt(3.0) * tree_->getResolution();
   const double half_diagonal_sq = half_diagonal * half_diagonal;
   const float l_free = model_.logOddsFree();
+  const double resolution = tree_->getResolution();
+  const int center = 1 << (tree_->getTreeDepth() - 1);  // the key of coordinate 0 (OctoMap's tree_max_val)
   for (std::size_t b = 0; b < beams.size(); ++b) {
     if (ray_begin_[b] == ray_begin_[b + 1]) continue;  // left the octree
     const Beam& beam = beams[b];
@@ -318,8 +278,11 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
     // For a scan beam in a level scan, the same in the plane: `across` is the in-plane normal of
     // the axis, and the voxel centre's height above the origin is the same for the whole layer.
     const double dz = tree_->keyToCoord(origin_key[2]) - origin.z();
+    // OcTree::keyToCoord with the tree's constants in registers (through tree_ they are reloaded per voxel).
+    auto coord = [resolution, center](octomap::key_type k) { return (double(int(k) - center) + 0.5) * resolution; };
+    const double ox = origin.x(), oy = origin.y();
     auto evaluate_level = [&](const octomap::OcTreeKey& key) __attribute__((always_inline)) {
-      const double vx = tree_->keyToCoord(key[0]) - origin.x(), vy = tree_->keyToCoord(key[1]) - origin.y();
+      const double vx = coord(key[0]) - ox, vy = coord(key[1]) - oy;
       const double along = vx * beam.direction.x() + vy * beam.direction.y();
       const double lateral = vx * beam.across.x() + vy * beam.across.y();
       judge(key, along, along > 0.0 ? lateral * lateral + dz * dz : vx * vx + vy * vy + dz * dz);
@@ -365,25 +328,29 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
   }
 }
 
-std::vector<KeyUpdate> ScanInserter::computeUpdates(const Eigen::Vector3d& origin,
-                                                                    const std::vector<Beam>& beams,
-                                                                    double half_angle) {
+std::vector<KeyUpdate> ScanInserter::computeUpdates(const Eigen::Vector3d& origin, const std::vector<Beam>& beams,
+                                                    double half_angle) {
   std::vector<KeyUpdate> updates;
   octomap::OcTreeKey origin_key;
   if (!coordToKeySafe(*tree_, origin.x(), origin.y(), origin.z(), &origin_key)) return updates;
   const KeyBox box = prepareBeams(origin, origin_key, beams, std::tan(half_angle));
-  prepareWindow(box.min, box.max);
-  slots_.clear();
-  sparse_.clear();
-  traceBeams(origin, origin_key, beams, half_angle,
-             [this](const octomap::OcTreeKey& key, float value) __attribute__((always_inline)) {
-               accumulate(key, value);
-             });
-  updates.reserve(slots_.size());
-  for (const Slot& slot : slots_) {
-    const float value = slot.positive > 0.0f ? slot.positive : slot.negative;
-    if (value != 0.0f) updates.push_back({slot.key, value});
-    if (inWindow(slot.key)) window_[windowIndex(slot.key)] = -1;
+  auto append = [&updates](const octomap::OcTreeKey& key, float update) { updates.push_back({key, update}); };
+  if (evidence_.begin(box)) {
+    traceBeams(origin, origin_key, beams, half_angle,
+               [this](const octomap::OcTreeKey& key, float value) __attribute__((always_inline)) {
+                 evidence_.add(key, value);
+               });
+    evidence_.drain(append);
+    return updates;
+  }
+  // Too large a box for a window: the same combining in a hash map.
+  std::unordered_map<octomap::OcTreeKey, std::uint32_t, octomap::OcTreeKey::KeyHash> sparse;
+  traceBeams(origin, origin_key, beams, half_angle, [&sparse](const octomap::OcTreeKey& key, float value) {
+    std::uint32_t& code = sparse[key];
+    code = std::max(code, ScanEvidence::code(value));
+  });
+  for (const auto& [key, code] : sparse) {
+    if (code != 0) append(key, ScanEvidence::value(code));
   }
   return updates;
 }
@@ -400,20 +367,36 @@ void ScanInserter::traceEvidence(const Scan& scan, const std::function<void(cons
 }
 
 // A level scan (the sensor's x-y plane horizontal) stays in the layer of its origin: every beam,
-// fanned ray and end has the origin's z exactly. Its evidence goes straight into the layer cache.
+// fanned ray and end has the origin's z exactly. Its combined evidence goes straight into the
+// layer cache.
 InsertResult ScanInserter::insertLevel(const Eigen::Vector3d& origin, const std::vector<Beam>& beams,
                                        double half_angle, InsertResult result) {
   octomap::OcTreeKey origin_key;
   if (!coordToKeySafe(*tree_, origin.x(), origin.y(), origin.z(), &origin_key)) return result;
   const KeyBox box = prepareBeams(origin, origin_key, beams, std::tan(half_angle));
+  if (!evidence_.begin(box)) return apply(computeUpdates(origin, beams, half_angle), result);
+  traceBeams(origin, origin_key, beams, half_angle,
+             [this](const octomap::OcTreeKey& key, float value) __attribute__((always_inline)) {
+               evidence_.add(key, value);
+             });
   LayerCache::Layer& layer = cache_.layer(origin_key[2]);
   cache_.cover(&layer, box.min[0], box.min[1], box.max[0], box.max[1]);
-  cache_.beginScan();
-  traceBeams(origin, origin_key, beams, half_angle,
-             [this, &layer](const octomap::OcTreeKey& key, float value) __attribute__((always_inline)) {
-               cache_.add(layer, key[0], key[1], value);  // a level scan's keys are all in its layer
-             });
-  result.voxels_updated = cache_.endScan(&result.updated_keys, &result.touched);
+  // The box in locals: added to through the result, every bound would go back to memory per voxel.
+  unsigned lo[2] = {0xFFFF, 0xFFFF}, hi[2] = {0, 0};
+  std::size_t updates = 0;
+  evidence_.drain([&](const octomap::OcTreeKey& key, float update) __attribute__((always_inline)) {
+    ++updates;
+    for (int d = 0; d < 2; ++d) {
+      lo[d] = std::min<unsigned>(lo[d], key[d]);
+      hi[d] = std::max<unsigned>(hi[d], key[d]);
+    }
+    if (cache_.apply(layer, key[0], key[1], update)) result.updated_keys.push_back(key);
+  });
+  result.voxels_updated = updates;
+  if (updates > 0) {
+    result.touched.add(octomap::OcTreeKey(lo[0], lo[1], origin_key[2]));
+    result.touched.add(octomap::OcTreeKey(hi[0], hi[1], origin_key[2]));
+  }
   return result;
 }
 

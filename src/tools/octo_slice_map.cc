@@ -145,7 +145,7 @@ std::string jsonMemory(const osm::Mapper& mapper) {
   const double cells = std::max<std::size_t>(1, mapper.slice().knownCells());
   const std::size_t octree = mapper.tree().memoryUsage();
   const std::size_t slice = mapper.slice().memoryBytes();
-  const std::size_t cache = mapper.inserter().cache().memoryBytes();
+  const std::size_t cache = mapper.inserter().memoryBytes();
   std::ostringstream j;
   j << "{\"octree_bytes\": " << octree << ", \"slice_bytes\": " << slice << ", \"insertion_cache_bytes\": " << cache
     << ", \"octree_bytes_per_cell\": " << octree / cells << ", \"slice_bytes_per_cell\": " << slice / cells

@@ -1,0 +1,78 @@
+// ScanEvidence: per-scan combining of evidence against the rule written out with two floats.
+#include "octo_slice_mapper/scan_evidence.h"
+
+#include <gtest/gtest.h>
+
+#include <map>
+#include <random>
+#include <tuple>
+
+using namespace octo_slice_mapper;
+
+namespace {
+using KeyTuple = std::tuple<int, int, int>;
+KeyTuple tupleOf(const octomap::OcTreeKey& k) { return {k[0], k[1], k[2]}; }
+
+KeyBox boxOf(const octomap::OcTreeKey& lo, const octomap::OcTreeKey& hi) {
+  KeyBox box;
+  box.add(lo);
+  box.add(hi);
+  return box;
+}
+}  // namespace
+
+TEST(ScanEvidence, CodeIsExactAndOrdersByTheCombiningRule) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> dist(-3.0f, 3.0f);
+  for (int i = 0; i < 10000; ++i) {
+    const float a = dist(rng), b = i % 7 == 0 ? -a : dist(rng);
+    if (a == 0.0f || b == 0.0f) continue;
+    EXPECT_EQ(ScanEvidence::value(ScanEvidence::code(a)), a);
+    // Which of the two the rule keeps: the larger positive, else the more negative.
+    const float kept = (a > 0.0f || b > 0.0f) ? std::max(a, b) : std::min(a, b);
+    EXPECT_EQ(ScanEvidence::value(std::max(ScanEvidence::code(a), ScanEvidence::code(b))), kept) << a << " " << b;
+  }
+  EXPECT_EQ(ScanEvidence::code(0.0f), 0u);
+  EXPECT_EQ(ScanEvidence::code(-0.0f), 0u);
+}
+
+// Random evidence in a 3D box over several scans: drain() gives each voxel once, with the value
+// the rule picks, in first-touch order, and nothing of a scan survives into the next.
+TEST(ScanEvidence, CombinesEachVoxelOncePerScan) {
+  std::mt19937 rng(3);
+  ScanEvidence evidence;
+  for (int scan = 0; scan < 5; ++scan) {
+    const octomap::OcTreeKey lo(32000 + 10 * scan, 32100 - 7 * scan, 32760), hi(lo[0] + 40, lo[1] + 25, lo[2] + 2);
+    ASSERT_TRUE(evidence.begin(boxOf(lo, hi)));
+    std::map<KeyTuple, std::pair<float, float>> expected;  // strongest positive, strongest negative
+    std::vector<KeyTuple> order;
+    std::uniform_int_distribution<int> dx(0, 40), dy(0, 25), dz(0, 2), pick(0, 9);
+    std::uniform_real_distribution<float> value(-2.0f, 2.0f);
+    for (int i = 0; i < 3000; ++i) {
+      const octomap::OcTreeKey key(lo[0] + dx(rng), lo[1] + dy(rng), lo[2] + dz(rng));
+      const float v = pick(rng) == 0 ? 0.0f : value(rng);  // zero: no evidence
+      evidence.add(key, v);
+      if (v == 0.0f) continue;
+      auto [it, fresh] = expected.emplace(tupleOf(key), std::make_pair(0.0f, 0.0f));
+      if (fresh) order.push_back(tupleOf(key));
+      it->second.first = std::max(it->second.first, v);
+      it->second.second = std::min(it->second.second, v);
+    }
+    std::vector<KeyTuple> drained;
+    evidence.drain([&](const octomap::OcTreeKey& key, float update) {
+      drained.push_back(tupleOf(key));
+      const auto& [pos, neg] = expected.at(tupleOf(key));
+      EXPECT_EQ(update, pos > 0.0f ? pos : neg);
+    });
+    EXPECT_EQ(drained, order);
+    evidence.drain([&](const octomap::OcTreeKey&, float) { ADD_FAILURE() << "drained twice"; });
+  }
+}
+
+TEST(ScanEvidence, RefusesBoxesLargerThanItsLimit) {
+  ScanEvidence evidence;
+  const octomap::OcTreeKey lo(0, 0, 32768);
+  EXPECT_FALSE(evidence.begin(boxOf(lo, octomap::OcTreeKey(4096, 4096, 32768))));
+  EXPECT_FALSE(evidence.begin(KeyBox{}));
+  EXPECT_TRUE(evidence.begin(boxOf(lo, octomap::OcTreeKey(4095, 4095, 32768))));
+}
