@@ -43,7 +43,7 @@ TEST(ScanEvidence, CombinesEachVoxelOncePerScan) {
   ScanEvidence evidence;
   for (int scan = 0; scan < 5; ++scan) {
     const octomap::OcTreeKey lo(32000 + 10 * scan, 32100 - 7 * scan, 32760), hi(lo[0] + 40, lo[1] + 25, lo[2] + 2);
-    ASSERT_TRUE(evidence.begin(boxOf(lo, hi)));
+    ASSERT_TRUE(evidence.begin(boxOf(lo, hi), 3000));
     std::map<KeyTuple, std::pair<float, float>> expected;  // strongest positive, strongest negative
     std::vector<KeyTuple> order;
     std::uniform_int_distribution<int> dx(0, 40), dy(0, 25), dz(0, 2), pick(0, 9);
@@ -72,7 +72,7 @@ TEST(ScanEvidence, CombinesEachVoxelOncePerScan) {
 TEST(ScanEvidence, RefusesBoxesLargerThanItsLimit) {
   ScanEvidence evidence;
   const octomap::OcTreeKey lo(0, 0, 32768);
-  EXPECT_FALSE(evidence.begin(boxOf(lo, octomap::OcTreeKey(4096, 4096, 32768))));
-  EXPECT_FALSE(evidence.begin(KeyBox{}));
-  EXPECT_TRUE(evidence.begin(boxOf(lo, octomap::OcTreeKey(4095, 4095, 32768))));
+  EXPECT_FALSE(evidence.begin(boxOf(lo, octomap::OcTreeKey(4096, 4096, 32768)), 1));
+  EXPECT_FALSE(evidence.begin(KeyBox{}, 1));
+  EXPECT_TRUE(evidence.begin(boxOf(lo, octomap::OcTreeKey(4095, 4095, 32768)), 1));
 }

@@ -21,8 +21,9 @@ namespace octo_slice_mapper {
 // invertible: the update drain() hands on is one of the values add() was given.
 class ScanEvidence {
  public:
-  // Windows above this many voxels would cost more memory than they save (80 m beams at 0.02 m):
-  // begin() refuses them and the caller combines the scan another way.
+  // Windows above this many voxels (each side rounded up to a power of two) would cost more
+  // memory than they save (80 m beams at 0.02 m): begin() refuses them and the caller combines
+  // the scan another way.
   static constexpr std::size_t kMaxCells = std::size_t{1} << 24;
 
   ScanEvidence() = default;
@@ -30,16 +31,16 @@ class ScanEvidence {
   ScanEvidence(const ScanEvidence&) = delete;
   ScanEvidence& operator=(const ScanEvidence&) = delete;
 
-  // Starts a scan whose voxels all lie in `box`; false (and nothing started) if the box is larger
-  // than kMaxCells.
-  bool begin(const KeyBox& box);
+  // Starts a scan whose voxels all lie in `box` and that adds at most `max_adds` pieces of
+  // evidence; false (and nothing started) if the box is larger than kMaxCells.
+  bool begin(const KeyBox& box, std::size_t max_adds);
   // Evidence `value` for `key` (zero is no evidence), which must lie in the box given to begin().
   __attribute__((always_inline)) inline void add(const octomap::OcTreeKey& key, float value) {
-    std::uint32_t& cell = cells_[index(key)];
+    const std::uint32_t index = indexOf(key);
+    std::uint32_t& cell = cells_[index];
     const std::uint32_t old = cell, c = code(value);
     cell = c > old ? c : old;
-    if (count_ == touched_capacity_) grow();
-    touched_[count_] = key;  // kept only if this is the voxel's first evidence (branch-free)
+    touched_[count_] = index;  // kept only if this is the voxel's first evidence (branch-free)
     count_ += (old == 0) & (c != 0);
   }
   // Calls fn(key, update) once per voxel that received evidence since begin(), in the order they
@@ -47,14 +48,14 @@ class ScanEvidence {
   template <typename Fn>
   void drain(Fn&& fn) {
     for (std::size_t i = 0; i < count_; ++i) {
-      std::uint32_t& cell = cells_[index(touched_[i])];
-      fn(touched_[i], value(cell));
-      cell = 0;
+      const std::uint32_t index = touched_[i];
+      fn(keyOf(index), value(cells_[index]));
+      cells_[index] = 0;
     }
     count_ = 0;
   }
   // The window's size is virtual: of it, only pages scans reached are resident.
-  std::size_t memoryBytes() const { return capacity_ * sizeof(std::uint32_t) + touched_capacity_ * sizeof(octomap::OcTreeKey); }
+  std::size_t memoryBytes() const { return (capacity_ + touched_capacity_) * sizeof(std::uint32_t); }
 
   static std::uint32_t code(float value) {
     const float magnitude = std::fabs(value);  // also clears the sign of -0
@@ -70,16 +71,24 @@ class ScanEvidence {
   }
 
  private:
-  // Linear in the key: the box's corner is folded into offset_.
-  std::size_t index(const octomap::OcTreeKey& key) const {
-    return std::size_t(key[0] + key[1] * stride_y_ + key[2] * stride_z_ - offset_);
+  // Power-of-two strides: an index converts back to its key by shifts and masks (drain needs the
+  // key). Linear in the key: the box's corner is folded into offset_.
+  std::uint32_t indexOf(const octomap::OcTreeKey& key) const {
+    return static_cast<std::uint32_t>((std::uint64_t(key[2]) << shift_z_) + (std::uint64_t(key[1]) << shift_y_) + key[0] -
+                                      offset_);
   }
-  void grow();
+  octomap::OcTreeKey keyOf(std::uint32_t index) const {
+    return octomap::OcTreeKey((index & mask_x_) + lo_[0], ((index >> shift_y_) & mask_y_) + lo_[1],
+                              (index >> shift_z_) + lo_[2]);
+  }
 
   std::uint32_t* cells_ = nullptr;  // calloc'ed: pages a scan never reaches are never made resident
   std::size_t capacity_ = 0;
-  std::int64_t stride_y_ = 0, stride_z_ = 0, offset_ = 0;
-  std::unique_ptr<octomap::OcTreeKey[]> touched_;  // the first count_ are this scan's voxels
+  unsigned shift_y_ = 0, shift_z_ = 0;
+  std::uint32_t mask_x_ = 0, mask_y_ = 0;
+  std::uint64_t offset_ = 0;
+  octomap::OcTreeKey lo_;
+  std::unique_ptr<std::uint32_t[]> touched_;  // indices; the first count_ are this scan's voxels
   std::size_t touched_capacity_ = 0, count_ = 0;
 };
 

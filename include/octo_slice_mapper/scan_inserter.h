@@ -116,6 +116,7 @@ class ScanInserter {
   ScanEvidence evidence_;               // the current scan's combined evidence
   std::vector<Ray> rays_;               // the current scan's rays (prepareBeams)
   std::vector<std::size_t> ray_begin_;  // beam b's are rays_[ray_begin_[b], ray_begin_[b + 1])
+  std::size_t max_visits_ = 0;          // bounds how many voxels the rays visit
   std::optional<InverseSensorModel::ConeTable> cone_;  // for the last half-angle seen
 
   LayerCache cache_;

@@ -8,13 +8,22 @@ namespace octo_slice_mapper {
 
 ScanEvidence::~ScanEvidence() { std::free(cells_); }
 
-bool ScanEvidence::begin(const KeyBox& box) {
+namespace {
+unsigned bitsFor(std::size_t n) {  // the smallest b with 2^b >= n
+  unsigned b = 0;
+  while ((std::size_t{1} << b) < n) ++b;
+  return b;
+}
+}  // namespace
+
+bool ScanEvidence::begin(const KeyBox& box, std::size_t max_adds) {
   count_ = 0;
   if (box.empty()) return false;
-  const std::size_t nx = std::size_t(box.max[0] - box.min[0]) + 1, ny = std::size_t(box.max[1] - box.min[1]) + 1,
-                    nz = std::size_t(box.max[2] - box.min[2]) + 1;
-  const std::size_t cells = nx * ny * nz;
-  if (cells > kMaxCells) return false;
+  const unsigned bx = bitsFor(std::size_t(box.max[0] - box.min[0]) + 1),
+                 by = bitsFor(std::size_t(box.max[1] - box.min[1]) + 1);
+  const std::size_t nz = std::size_t(box.max[2] - box.min[2]) + 1;
+  if (bx + by >= 32 || (nz << (bx + by)) > kMaxCells) return false;
+  const std::size_t cells = nz << (bx + by);
   if (cells > capacity_) {
     // Zero-filled and lazily mapped by the system: a larger window costs only the pages used.
     std::free(cells_);
@@ -25,18 +34,17 @@ bool ScanEvidence::begin(const KeyBox& box) {
     }
     capacity_ = cells;
   }
-  stride_y_ = std::int64_t(nx);
-  stride_z_ = std::int64_t(nx * ny);
-  offset_ = box.min[0] + box.min[1] * stride_y_ + box.min[2] * stride_z_;
+  if (max_adds > touched_capacity_) {
+    touched_capacity_ = std::max(max_adds, 2 * touched_capacity_);
+    touched_.reset(new std::uint32_t[touched_capacity_]);
+  }
+  shift_y_ = bx;
+  shift_z_ = bx + by;
+  mask_x_ = (1u << bx) - 1;
+  mask_y_ = (1u << by) - 1;
+  lo_ = box.min;
+  offset_ = (std::uint64_t(box.min[2]) << shift_z_) + (std::uint64_t(box.min[1]) << shift_y_) + box.min[0];
   return true;
-}
-
-void ScanEvidence::grow() {
-  const std::size_t capacity = 2 * touched_capacity_ + 4096;
-  std::unique_ptr<octomap::OcTreeKey[]> grown(new octomap::OcTreeKey[capacity]);
-  std::copy(touched_.get(), touched_.get() + count_, grown.get());
-  touched_ = std::move(grown);
-  touched_capacity_ = capacity;
 }
 
 }  // namespace octo_slice_mapper

