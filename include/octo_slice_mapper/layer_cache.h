@@ -67,7 +67,9 @@ class LayerCache {
     // updateNode's early out, decided here without a call.
     if (slot->state[index] & kKnown) {
       const float old = slot->value[index];
-      if (update >= 0.0f ? old >= tree_->getClampingThresMaxLog() : old <= tree_->getClampingThresMinLog()) return false;
+      const bool at_bound =
+          update >= 0.0f ? old >= tree_->getClampingThresMaxLog() : old <= tree_->getClampingThresMinLog();
+      if (at_bound) return false;
     }
     return applyTo({&slot->value[index], &slot->state[index], octomap::OcTreeKey(kx, ky, layer.z)}, update);
   }

@@ -2,7 +2,6 @@
 // update per scan (see ScanInserter for the rule).
 #pragma once
 
-
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -74,8 +73,8 @@ class ScanEvidence {
   // Power-of-two strides: an index converts back to its key by shifts and masks (drain needs the
   // key). Linear in the key: the box's corner is folded into offset_.
   std::uint32_t indexOf(const octomap::OcTreeKey& key) const {
-    return static_cast<std::uint32_t>((std::uint64_t(key[2]) << shift_z_) + (std::uint64_t(key[1]) << shift_y_) + key[0] -
-                                      offset_);
+    const std::uint64_t linear = (std::uint64_t(key[2]) << shift_z_) + (std::uint64_t(key[1]) << shift_y_) + key[0];
+    return static_cast<std::uint32_t>(linear - offset_);
   }
   octomap::OcTreeKey keyOf(std::uint32_t index) const {
     return octomap::OcTreeKey((index & mask_x_) + lo_[0], ((index >> shift_y_) & mask_y_) + lo_[1],

@@ -54,7 +54,9 @@ void LayerCache::cover(Layer* l, unsigned kx0, unsigned ky0, unsigned kx1, unsig
 std::unique_ptr<LayerCache::Tile> LayerCache::newTile(std::uint16_t z, unsigned kx, unsigned ky) const {
   auto tile = std::make_unique<Tile>();
   const unsigned depth = tree_->getTreeDepth() - kTileBits;
-  if (!tree_->search(octomap::OcTreeKey(kx, ky, z), depth)) std::fill(std::begin(tile->state), std::end(tile->state), kUnknown);
+  if (!tree_->search(octomap::OcTreeKey(kx, ky, z), depth)) {
+    std::fill(std::begin(tile->state), std::end(tile->state), kUnknown);
+  }
   return tile;
 }
 
@@ -93,6 +95,7 @@ bool LayerCache::apply(const octomap::OcTreeKey& key, float update) {
   cover(&l, key[0], key[1], key[0], key[1]);
   return apply(l, key[0], key[1], update);
 }
+
 LayerCache::Lookup LayerCache::lookup(unsigned kx, unsigned ky, unsigned kz, float* value) const {
   const Layer* l = findLayer(static_cast<std::uint16_t>(kz));
   const Tile* tile = l ? l->tile(kx, ky) : nullptr;
