@@ -76,3 +76,16 @@ TEST(ScanEvidence, RefusesBoxesLargerThanItsLimit) {
   EXPECT_FALSE(evidence.begin(KeyBox{}, 1));
   EXPECT_TRUE(evidence.begin(boxOf(lo, octomap::OcTreeKey(4095, 4095, 32768)), 1));
 }
+
+// A scan abandoned before drain() (its caller threw) leaves nothing behind for the next one.
+TEST(ScanEvidence, AnAbandonedScanLeavesNothingBehind) {
+  ScanEvidence evidence;
+  const octomap::OcTreeKey lo(1000, 1000, 32768), hi(1010, 1010, 32768), key(1005, 1005, 32768);
+  ASSERT_TRUE(evidence.begin(boxOf(lo, hi), 10));
+  evidence.add(key, 0.9f);
+  ASSERT_TRUE(evidence.begin(boxOf(lo, hi), 10));
+  evidence.add(key, -0.4f);
+  std::vector<float> updates;
+  evidence.drain([&](const octomap::OcTreeKey&, float update) { updates.push_back(update); });
+  EXPECT_EQ(updates, std::vector<float>{-0.4f});
+}

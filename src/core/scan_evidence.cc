@@ -17,6 +17,8 @@ unsigned bitsFor(std::size_t n) {  // the smallest b with 2^b >= n
 }  // namespace
 
 bool ScanEvidence::begin(const KeyBox& box, std::size_t max_adds) {
+  // A scan that was never drained (its caller threw) must not leave evidence for the next one.
+  for (std::size_t i = 0; i < count_; ++i) cells_[touched_[i]] = 0;
   count_ = 0;
   if (box.empty()) return false;
   const unsigned bx = bitsFor(std::size_t(box.max[0] - box.min[0]) + 1),
