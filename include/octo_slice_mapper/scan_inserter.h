@@ -96,6 +96,10 @@ class ScanInserter {
                            InsertResult result);
   KeyBox prepareBeams(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
                       const std::vector<Beam>& beams, double tan_half);
+  std::vector<KeyUpdate> combinedUpdates(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
+                                         const std::vector<Beam>& beams, double half_angle, const KeyBox& box);
+  void traceIntoWindow(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
+                       const std::vector<Beam>& beams, double half_angle);
   template <typename Sink>
   void traceBeams(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key, const std::vector<Beam>& beams,
                   double half_angle, Sink&& sink);

@@ -185,7 +185,8 @@ void ScanInserter::fanOf(const Beam& beam, double tan_half, std::vector<Ray>* ra
   for (int k = -fan; k <= fan; ++k) {
     const double t = fan ? tan_half * k / fan : 0.0;
     const double start = k == 0 ? 0.0 : 0.5 * resolution * std::sqrt(1.0 + t * t) / std::abs(t);
-    rays->push_back({(beam.direction + t * beam.across).normalized(), start, k == 0, octomap::OcTreeKey(0, 0, 0)});  // key set by the caller
+    // far_key is set by the caller.
+    rays->push_back({(beam.direction + t * beam.across).normalized(), start, k == 0, octomap::OcTreeKey(0, 0, 0)});
   }
 }
 
@@ -203,11 +204,12 @@ KeyBox ScanInserter::prepareBeams(const Eigen::Vector3d& origin, const octomap::
   for (const Beam& beam : beams) {
     const std::size_t first = rays_.size();
     fanOf(beam, tan_half, &rays_);
+    const double length = traceLength(beam);
     KeyBox beam_box;
     bool inside = true;
     // Every ray's end: the arc of ends bulges past the outer rays' chord.
     for (std::size_t r = first; r < rays_.size() && inside; ++r) {
-      const Eigen::Vector3d end = origin + rays_[r].direction * traceLength(beam);
+      const Eigen::Vector3d end = origin + rays_[r].direction * length;
       inside = coordToKeySafe(*tree_, end.x(), end.y(), end.z(), &rays_[r].far_key);
       if (inside) beam_box.add(rays_[r].far_key);
     }
@@ -303,7 +305,8 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
     // free_exit are the free valley without evaluating. kAxis is a type so that the test
     // vanishes from the fanned rays' loops.
     auto visitor = [&](auto axis, const auto& eval) {
-      return [&sink, eval, free_exit, l_free](const octomap::OcTreeKey& key, double t_exit) __attribute__((always_inline)) {
+      return [&sink, eval, free_exit, l_free](const octomap::OcTreeKey& key,
+                                              double t_exit) __attribute__((always_inline)) {
         if (decltype(axis)::value && t_exit < free_exit) {
           sink(key, l_free);
         } else {
@@ -338,16 +341,30 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
 
 std::vector<KeyUpdate> ScanInserter::computeUpdates(const Eigen::Vector3d& origin, const std::vector<Beam>& beams,
                                                     double half_angle) {
-  std::vector<KeyUpdate> updates;
   octomap::OcTreeKey origin_key;
-  if (!coordToKeySafe(*tree_, origin.x(), origin.y(), origin.z(), &origin_key)) return updates;
+  if (!coordToKeySafe(*tree_, origin.x(), origin.y(), origin.z(), &origin_key)) return {};
   const KeyBox box = prepareBeams(origin, origin_key, beams, std::tan(half_angle));
+  return combinedUpdates(origin, origin_key, beams, half_angle, box);
+}
+
+// The evidence of the beams prepareBeams kept, into the window begun over their box.
+void ScanInserter::traceIntoWindow(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
+                                   const std::vector<Beam>& beams, double half_angle) {
+  traceBeams(origin, origin_key, beams, half_angle,
+             [this](const octomap::OcTreeKey& key, float value) __attribute__((always_inline)) {
+               evidence_.add(key, value);
+             });
+}
+
+// Each voxel's combined update of the beams prepareBeams kept (`box` is theirs).
+std::vector<KeyUpdate> ScanInserter::combinedUpdates(const Eigen::Vector3d& origin,
+                                                     const octomap::OcTreeKey& origin_key,
+                                                     const std::vector<Beam>& beams, double half_angle,
+                                                     const KeyBox& box) {
+  std::vector<KeyUpdate> updates;
   auto append = [&updates](const octomap::OcTreeKey& key, float update) { updates.push_back({key, update}); };
   if (evidence_.begin(box, max_visits_)) {
-    traceBeams(origin, origin_key, beams, half_angle,
-               [this](const octomap::OcTreeKey& key, float value) __attribute__((always_inline)) {
-                 evidence_.add(key, value);
-               });
+    traceIntoWindow(origin, origin_key, beams, half_angle);
     evidence_.drain(append);
     return updates;
   }
@@ -382,11 +399,10 @@ InsertResult ScanInserter::insertLevel(const Eigen::Vector3d& origin, const std:
   octomap::OcTreeKey origin_key;
   if (!coordToKeySafe(*tree_, origin.x(), origin.y(), origin.z(), &origin_key)) return result;
   const KeyBox box = prepareBeams(origin, origin_key, beams, std::tan(half_angle));
-  if (!evidence_.begin(box, max_visits_)) return apply(computeUpdates(origin, beams, half_angle), result);
-  traceBeams(origin, origin_key, beams, half_angle,
-             [this](const octomap::OcTreeKey& key, float value) __attribute__((always_inline)) {
-               evidence_.add(key, value);
-             });
+  if (!evidence_.begin(box, max_visits_)) {
+    return apply(combinedUpdates(origin, origin_key, beams, half_angle, box), result);  // too large a box
+  }
+  traceIntoWindow(origin, origin_key, beams, half_angle);
   LayerCache::Layer& layer = cache_.layer(origin_key[2]);
   cache_.cover(&layer, box.min[0], box.min[1], box.max[0], box.max[1]);
   // The box in locals: added to through the result, every bound would go back to memory per voxel.
