@@ -226,3 +226,30 @@ TEST(LayerCache, MapperLendsItsOctreeWhileScansGoOn) {
   }
   expectSameTree(mapper.tree(), straight.tree());
 }
+
+// The global pass's input comes without the octree: the insertion cache stays as it is (no flush
+// under the node's lock) and nothing is lent, yet the slice and the scans are those of the map.
+TEST(LayerCache, OptimizationInputLeavesTheCacheAlone) {
+  const sim::SimulatedSession session(sim::FloorPlan::office(), sim::SessionSpec::officeTour());
+  Mapper mapper;
+  std::mt19937 rng(3);
+  const auto times = session.scanTimes();
+  for (std::size_t i = 0; i < times.size() / 4; i += 2) ASSERT_TRUE(mapper.insert(session.scanAt(times[i], &rng)).ok());
+  const std::size_t waiting = mapper.inserter().cache().dirtyCount();
+  ASSERT_GT(waiting, 0u);
+
+  const MapSnapshot input = mapper.optimizationInput();
+  EXPECT_EQ(input.tree, nullptr);
+  EXPECT_FALSE(mapper.lent());
+  EXPECT_EQ(mapper.inserter().cache().dirtyCount(), waiting) << "the cache was flushed";
+  EXPECT_EQ(input.scans.size(), mapper.scanStore().scans().size());
+  EXPECT_GT(input.scans.size(), 10u);
+  EXPECT_EQ(input.band_lo, mapper.slice().bandMinKey());
+  EXPECT_EQ(input.band_hi, mapper.slice().bandMaxKey());
+  const MapSnapshot lent = mapper.snapshot(/*with_scans=*/true);  // the lending way, for comparison
+  EXPECT_EQ(mapper.inserter().cache().dirtyCount(), 0u);
+  EXPECT_EQ(input.slice.cells, lent.slice.cells);
+  EXPECT_EQ(input.slice.width, lent.slice.width);
+  EXPECT_EQ(input.slice.origin_x, lent.slice.origin_x);
+  mapper.endSnapshot();
+}

@@ -72,6 +72,9 @@ class Mapper {
   // and applyOptimized() are refused meanwhile.
   MapSnapshot snapshot(bool with_scans);
   void endSnapshot();
+  // What the global pass reads (the slice, its band, the kept scans), copied without the octree:
+  // unlike snapshot() it neither flushes the insertion cache nor lends anything (tree is null).
+  MapSnapshot optimizationInput() const;
   bool lent() const { return lent_; }
 
   // The octree, brought up to date with the insertion cache first.

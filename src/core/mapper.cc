@@ -104,6 +104,15 @@ MapSnapshot Mapper::snapshot(bool with_scans) {
   return snap;
 }
 
+MapSnapshot Mapper::optimizationInput() const {
+  MapSnapshot input;
+  input.slice = gridImageOf(*slice_);
+  input.band_lo = slice_->bandMinKey();
+  input.band_hi = slice_->bandMaxKey();
+  input.scans = store_.scans();
+  return input;
+}
+
 void Mapper::endSnapshot() {
   lent_ = false;
   inserter_->setOctreeLent(false);

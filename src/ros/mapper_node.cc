@@ -394,9 +394,9 @@ bool MapperNode::onOptimize(Optimize::Request& req, Optimize::Response& res) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     const ros::WallTime held = ros::WallTime::now();
-    snapshot = mapper_.snapshot(/*with_scans=*/true);
-    mapper_.endSnapshot();  // the global pass needs the scans and the slice, not the octree
-    snapshot.tree = nullptr;
+    // The scans and the slice only: the octree (and flushing the insertion cache into it under
+    // the lock) is not needed for the global pass.
+    snapshot = mapper_.optimizationInput();
     noteServiceLock(held);
   }
   if (snapshot.scans.empty()) {
