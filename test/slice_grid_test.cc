@@ -5,7 +5,9 @@
 #include <cmath>
 
 #include "octo_slice_mapper/mapper.h"
+#include "octo_slice_mapper/map_io.h"
 #include "octo_slice_mapper/sim/session.h"
+#include "test_helpers.h"
 
 using namespace octo_slice_mapper;
 
@@ -98,4 +100,51 @@ TEST(SliceGrid, GrowsWithoutLosingCells) {
   slice.update(boxAround(tree, -30.0, 25.0, 0.26));
   EXPECT_EQ(slice.valueAt(0.0, 0.0), before);
   EXPECT_NE(slice.valueAt(-30.0, 25.0), kUnknownCell);
+}
+
+// The slice skips band layers nothing has reached. A layer that a point cloud reaches later, or
+// that a loaded map already holds, must count from then on, also where a level scan then changes
+// the column through its own layer.
+TEST(SliceGrid, ALayerReachedLaterOrLoadedStillCounts) {
+  const double low_z = 0.185;  // another layer of the band than the laser's (0.26 m)
+  // An obstacle at low_z only, in the middle of what the laser sees free.
+  auto obstacle = [&](Mapper* mapper) {
+    std::vector<Eigen::Vector3f> points;
+    for (int k = -2; k <= 2; ++k) points.emplace_back(1.5f, 0.05f * k, float(low_z));
+    for (int n = 0; n < 5; ++n) ASSERT_TRUE(mapper->insertPoints(Eigen::Vector3d(0.0, 0.0, low_z), points).ok());
+  };
+  auto level_scan = [] {  // straight ahead to a wall at 3 m, through (1.5, 0)
+    return test_support::makeScan(test_support::laserPoseOnRobot(-0.1, 0.0, 0.0), -0.2f, 0.01f,
+                                  std::vector<float>(41, 3.0f));
+  };
+  auto expect_matches_rebuild = [](Mapper& mapper) {
+    SliceGrid rebuilt(mapper.tree(), mapper.options().slice);
+    rebuilt.rebuild();
+    const SliceGrid& live = mapper.slice();
+    ASSERT_EQ(live.knownCells(), rebuilt.knownCells());
+    for (double x = 0.0; x < 3.2; x += 0.05) {
+      for (double y = -0.5; y < 0.5; y += 0.05) ASSERT_EQ(live.valueAt(x, y), rebuilt.valueAt(x, y)) << x << ", " << y;
+    }
+  };
+
+  Mapper mapper;
+  for (int n = 0; n < 3; ++n) ASSERT_TRUE(mapper.insert(level_scan()).ok());
+  ASSERT_LT(mapper.slice().valueAt(1.5, 0.0), 50) << "the laser's layer sees it free";
+  obstacle(&mapper);
+  EXPECT_GT(mapper.slice().valueAt(1.5, 0.0), 50) << "the low layer's obstacle counts";
+  ASSERT_TRUE(mapper.insert(level_scan()).ok());  // changes the column through the laser's layer
+  EXPECT_GT(mapper.slice().valueAt(1.5, 0.0), 50) << "and still counts after the next scan";
+  expect_matches_rebuild(mapper);
+
+  // The same map saved and loaded: the low layer is known from the file.
+  char tmpl[] = "/tmp/osm_slice_XXXXXX";
+  const std::string path = std::string(::mkdtemp(tmpl)) + "/map.ot";
+  std::string error;
+  ASSERT_TRUE(saveFullTree(mapper.tree(), path, &error)) << error;
+  Mapper resumed;
+  ASSERT_TRUE(resumed.load(path, &error)) << error;
+  EXPECT_GT(resumed.slice().valueAt(1.5, 0.0), 50);
+  ASSERT_TRUE(resumed.insert(level_scan()).ok());
+  EXPECT_GT(resumed.slice().valueAt(1.5, 0.0), 50) << "a scan after loading keeps the loaded layer";
+  expect_matches_rebuild(resumed);
 }

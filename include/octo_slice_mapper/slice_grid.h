@@ -31,6 +31,8 @@ class SliceGrid {
 
   // Recomputes the columns inside `box` (x/y of the keys; the band decides z). Cost is
   // proportional to the box area, independent of the map size.
+  // Every change to the octree's band must reach the slice through update(), updateColumns() or
+  // rebuild(): the slice skips band layers that none of them has seen.
   void update(const KeyBox& box);
   // Recomputes only the columns of `keys` that lie in the band (what one scan changed); cost is
   // proportional to the number of keys.
@@ -69,8 +71,16 @@ class SliceGrid {
   const octomap::OcTreeNode* bandVoxel(const octomap::OcTreeNode* top, std::uint16_t kx, std::uint16_t ky,
                                        unsigned kz) const;
 
+  // Recomputes the columns of `box` (x/y) from the layers noted so far.
+  void recompute(const KeyBox& box);
+  // Marks the band layers kz0..kz1 as possibly holding known voxels.
+  void noteLayers(unsigned kz0, unsigned kz1);
+
   const octomap::OcTree& tree_;
   const LayerCache* cache_;
+  // Per band layer: false while no voxel of it can be known (nothing reached it since the last
+  // rebuild). A 2D lidar fills one layer of the band; the others then cost no octree search.
+  std::vector<bool> layer_may_be_known_;
   SliceOptions options_;
   double resolution_;
   std::uint16_t band_lo_, band_hi_;

@@ -30,6 +30,13 @@ SliceGrid::SliceGrid(const octomap::OcTree& tree, const SliceOptions& options, c
   unsigned differing = band_lo_ ^ band_hi_, bits = 0;
   while (differing) differing >>= 1, ++bits;
   band_common_depth_ = tree.getTreeDepth() - bits;
+  layer_may_be_known_.assign(band_hi_ - band_lo_ + 1, false);
+}
+
+void SliceGrid::noteLayers(unsigned kz0, unsigned kz1) {
+  for (unsigned kz = std::max<unsigned>(kz0, band_lo_); kz <= std::min<unsigned>(kz1, band_hi_); ++kz) {
+    layer_may_be_known_[kz - band_lo_] = true;
+  }
 }
 
 double SliceGrid::originX() const { return tree_.keyToCoord(origin_key_x_) - 0.5 * resolution_; }
@@ -59,6 +66,7 @@ void SliceGrid::clear() {
   geometry_ = nextGeometry();
   width_ = height_ = 0;
   data_.clear();
+  layer_may_be_known_.assign(layer_may_be_known_.size(), false);
 }
 
 // One voxel's value from the tree: a descent from `top`, the deepest node holding the column's band.
@@ -78,9 +86,11 @@ const octomap::OcTreeNode* SliceGrid::bandVoxel(const octomap::OcTreeNode* top, 
 // per layer: 5 layers cost ~1.5 root-to-leaf walks instead of 5. Voxels of cached layers are read
 // from the cache, which the tree may lag behind.
 std::int8_t SliceGrid::columnValue(std::uint16_t kx, std::uint16_t ky) const {
-  const octomap::OcTreeNode* top = tree_.search(octomap::OcTreeKey(kx, ky, band_lo_), band_common_depth_);
+  const octomap::OcTreeNode* top = nullptr;
+  bool searched = false;  // the descent to `top` only when a layer needs the tree
   double best = -1.0;
   for (unsigned kz = band_lo_; kz <= band_hi_; ++kz) {
+    if (!layer_may_be_known_[kz - band_lo_]) continue;
     float log_odds = 0.0f;
     switch (cache_ ? cache_->lookup(kx, ky, kz, &log_odds) : LayerCache::Lookup::kNotCached) {
       case LayerCache::Lookup::kKnown:
@@ -89,6 +99,10 @@ std::int8_t SliceGrid::columnValue(std::uint16_t kx, std::uint16_t ky) const {
       case LayerCache::Lookup::kUnknown:
         break;
       case LayerCache::Lookup::kNotCached:  // the tree is current for it (a pruned leaf may hold the whole band)
+        if (!searched) {
+          top = tree_.search(octomap::OcTreeKey(kx, ky, band_lo_), band_common_depth_);
+          searched = true;
+        }
         if (const octomap::OcTreeNode* node = top ? bandVoxel(top, kx, ky, kz) : nullptr) {
           best = std::max(best, node->getOccupancy());
         }
@@ -137,6 +151,11 @@ void SliceGrid::ensureCovers(std::uint16_t kx0, std::uint16_t ky0, std::uint16_t
 void SliceGrid::update(const KeyBox& box) {
   if (box.empty() || box.max[2] < band_lo_ || box.min[2] > band_hi_) return;
   ensureCovers(box.min[0], box.min[1], box.max[0], box.max[1]);
+  noteLayers(box.min[2], box.max[2]);  // what changed there is not known: read those layers
+  recompute(box);
+}
+
+void SliceGrid::recompute(const KeyBox& box) {
   for (unsigned ky = box.min[1]; ky <= box.max[1]; ++ky) {
     std::int8_t* row = &data_[std::size_t(ky - origin_key_y_) * width_];
     for (unsigned kx = box.min[0]; kx <= box.max[0]; ++kx) {
@@ -150,6 +169,7 @@ void SliceGrid::updateColumns(const std::vector<octomap::OcTreeKey>& keys, const
   ensureCovers(box.min[0], box.min[1], box.max[0], box.max[1]);
   for (const octomap::OcTreeKey& k : keys) {
     if (k[2] < band_lo_ || k[2] > band_hi_) continue;
+    layer_may_be_known_[k[2] - band_lo_] = true;
     data_[std::size_t(k[1] - origin_key_y_) * width_ + (k[0] - origin_key_x_)] = columnValue(k[0], k[1]);
   }
 }
@@ -164,13 +184,17 @@ void SliceGrid::rebuild() {
     const unsigned base_mask = ~(span - 1);
     octomap::OcTreeKey lo(k[0] & base_mask, k[1] & base_mask, k[2] & base_mask);
     if (lo[2] + span - 1 < band_lo_ || lo[2] > band_hi_) continue;
+    noteLayers(lo[2], lo[2] + span - 1);
     box.add(lo);
     box.add(octomap::OcTreeKey(lo[0] + span - 1, lo[1] + span - 1, lo[2] + span - 1));
   }
+  // The cache's layers may hold voxels the tree doesn't have yet.
+  for (unsigned kz = band_lo_; kz <= band_hi_; ++kz) {
+    if (cache_ && cache_->findLayer(static_cast<std::uint16_t>(kz))) noteLayers(kz, kz);
+  }
   if (box.empty()) return;
-  box.min[2] = band_lo_;
-  box.max[2] = band_hi_;
-  update(box);
+  ensureCovers(box.min[0], box.min[1], box.max[0], box.max[1]);
+  recompute(box);  // the layers the leaves reach are noted above
 }
 
 }  // namespace octo_slice_mapper
