@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <limits>
+#include <random>
+#include <vector>
 
 #include "test_helpers.h"
 
@@ -205,4 +207,44 @@ TEST(ScanInserter, CoordinatesOutsideTheTreeAreDroppedSafely) {
   ASSERT_NE(wall, nullptr);
   EXPECT_TRUE(tree.isNodeOccupied(wall));
   EXPECT_EQ(tree.search(50.0, 0.0, 0.26), nullptr);
+}
+
+// Where the tracer skips the model (voxels surely in a beam's free valley, on the axis and on
+// fanned rays inside the cone's full-weight part), it must hand on exactly what the model gives.
+// Sparse scans (2-10 deg steps) and long ranges make wide cones, so most beams are fanned; some
+// scans are tilted (the 3D walk), some readings are no-returns or cut by max_range.
+TEST(ScanInserter, FreeValleyShortcutsGiveWhatTheModelGives) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (double resolution : {0.05, 0.1}) {
+    octomap::OcTree tree(resolution);
+    InsertOptions options;
+    options.max_range = 18.0;
+    ScanInserter inserter(&tree, options);
+    std::size_t pairs = 0, free_pairs = 0;
+    for (int n = 0; n < 24; ++n) {
+      const float step = float((2.0 + 8.0 * unit(rng)) * M_PI / 180.0);
+      std::vector<float> ranges(static_cast<std::size_t>(2.6 / step));
+      for (float& r : ranges) {
+        const double u = unit(rng);
+        r = u < 0.1 ? 30.0f : float(0.2 + 20.0 * u * u);  // 30 m = no return
+      }
+      const double pitch = n % 4 == 3 ? 0.05 * unit(rng) : 0.0;
+      Scan scan = makeScan(laserPoseOnRobot(unit(rng), unit(rng), 6.3 * unit(rng), pitch), -1.3f, step, ranges,
+                           0.02f, 30.0f);
+      std::vector<std::pair<octomap::OcTreeKey, float>> model, fast;
+      inserter.traceEvidence(scan, [&](const octomap::OcTreeKey& k, float v) { model.emplace_back(k, v); });
+      inserter.traceEvidence(
+          scan, [&](const octomap::OcTreeKey& k, float v) { fast.emplace_back(k, v); }, /*shortcuts=*/true);
+      ASSERT_EQ(fast.size(), model.size()) << "scan " << n;
+      for (std::size_t i = 0; i < model.size(); ++i) {
+        ASSERT_TRUE(fast[i].first == model[i].first) << "scan " << n << ", pair " << i;
+        ASSERT_EQ(fast[i].second, model[i].second) << "scan " << n << ", pair " << i;
+        free_pairs += model[i].second == inserter.model().logOddsFree();
+      }
+      pairs += model.size();
+    }
+    EXPECT_GT(pairs, 50000u);
+    EXPECT_GT(free_pairs, pairs / 3) << "the free valley is most of a scan";
+  }
 }

@@ -68,7 +68,10 @@ class ScanInserter {
 
   // Every (voxel, evidence) pair the model gives for a scan, before combining per voxel: what the
   // fast path folds into the cache, for a straightforward reference implementation to check it.
-  void traceEvidence(const Scan& scan, const std::function<void(const octomap::OcTreeKey&, float)>& fn);
+  // By default the model is evaluated for every voxel; with `shortcuts`, as the fast path does,
+  // not where a voxel is surely in the free valley (the pairs must be the same).
+  void traceEvidence(const Scan& scan, const std::function<void(const octomap::OcTreeKey&, float)>& fn,
+                     bool shortcuts = false);
 
   // Per-voxel log-odds updates of one scan before they are applied, in traversal order.
   std::vector<KeyUpdate> computeUpdates(const Eigen::Vector3d& origin, const std::vector<Beam>& beams,
@@ -100,9 +103,11 @@ class ScanInserter {
                                          const std::vector<Beam>& beams, double half_angle, const KeyBox& box);
   void traceIntoWindow(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
                        const std::vector<Beam>& beams, double half_angle);
+  // With `shortcuts`, voxels that are surely in a beam's free valley get l_free without the
+  // model being evaluated; without, every voxel is judged (the reference for tests).
   template <typename Sink>
   void traceBeams(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key, const std::vector<Beam>& beams,
-                  double half_angle, Sink&& sink);
+                  double half_angle, Sink&& sink, bool shortcuts);
   double traceLength(const Beam& beam) const;
   struct Ray {
     Eigen::Vector3d direction;
@@ -110,6 +115,8 @@ class ScanInserter {
     bool axis;
     octomap::OcTreeKey far_key;  // of its end, where the beam's trace ends
   };
+  void freeStretch(const Ray& ray, const Eigen::Vector3d& axis, double pure_free_until, double off_axis_free_until,
+                   double tan_full, double* s_lo, double* s_hi) const;
   // Appends the beam's rays to `rays`.
   void fanOf(const Beam& beam, double tan_half, std::vector<Ray>* rays) const;
 

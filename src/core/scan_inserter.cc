@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <type_traits>
 #include <unordered_map>
 
 namespace octo_slice_mapper {
@@ -229,11 +228,38 @@ KeyBox ScanInserter::prepareBeams(const Eigen::Vector3d& origin, const octomap::
   return box;
 }
 
+// Where along `ray` (distances from the origin, in (s_lo, s_hi)) every voxel the ray leaves is
+// in the beam's free valley with full weight, so that judging it would give exactly l_free: the
+// voxel's centre c is within half_diagonal (h) of p, the point where the ray leaves it, at
+// distance s from the origin and angle a off the axis. Then c lies at most s + h along the axis,
+// and its part nearest the axis at most s sin(a) off it while c is at least s cos(a) - h along:
+//  - on the axis (a = 0) c is within h of the axis, which makes it an axis voxel: s + h <
+//    pure_free_until suffices;
+//  - off it, s sin(a) < tan_full (s cos(a) - h) puts it inside the full-weight part of the cone,
+//    and s + h < off_axis_free_until before the end of the free valley there.
+// (1e-6 m spares the tests from rounding in the walk's exit distances.)
+void ScanInserter::freeStretch(const Ray& ray, const Eigen::Vector3d& axis, double pure_free_until,
+                               double off_axis_free_until, double tan_full, double* s_lo, double* s_hi) const {
+  constexpr double kSlack = 1e-6;
+  const double h = 0.5 * std::sqrt(3.0) * tree_->getResolution() + kSlack;
+  if (ray.axis) {
+    *s_lo = -1.0;
+    *s_hi = pure_free_until - h;
+    return;
+  }
+  const double cos_a = std::min(1.0, ray.direction.dot(axis));
+  const double sin_a = std::sqrt(std::max(0.0, 1.0 - cos_a * cos_a));
+  const double g = tan_full * cos_a - sin_a;  // s * g > tan_full * h: inside the full-weight part
+  if (!(g > 0.0)) return;                     // never: the ray runs in the cone's taper
+  *s_lo = tan_full * h / g + kSlack;
+  *s_hi = off_axis_free_until - h;
+}
+
 // Second pass: every voxel each beam kept by prepareBeams reaches, with the model's evidence for it, handed to
 // `sink(key, value)` (zero evidence is not handed on).
 template <typename Sink>
 void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
-                              const std::vector<Beam>& beams, double half_angle, Sink&& sink) {
+                              const std::vector<Beam>& beams, double half_angle, Sink&& sink, bool shortcuts) {
   if (!cone_ || cone_->halfAngle() != half_angle) cone_.emplace(model_, half_angle);
   const InverseSensorModel::ConeTable& cone = *cone_;
   const double tan_half = cone.tanHalf();
@@ -297,17 +323,12 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
       const double lateral = vx * beam.across.x() + vy * beam.across.y();
       judge(key, along, along > 0.0 ? lateral * lateral + dz * dz : vx * vx + vy * vy + dz * dz);
     };
-    // A voxel the axis leaves at distance s from the origin has its centre at most s +
-    // half_diagonal along the beam, and it is on the axis: closer than pure_free_until that is
-    // the free valley without evaluating the model (most voxels of a scan).
-    const double free_exit = (pure_free_until - half_diagonal - 1e-6) / length;
-    // Per voxel of a ray, evaluating it with `eval`; on the axis (kAxis), voxels left before
-    // free_exit are the free valley without evaluating. kAxis is a type so that the test
-    // vanishes from the fanned rays' loops.
-    auto visitor = [&](auto axis, const auto& eval) {
-      return [&sink, eval, free_exit, l_free](const octomap::OcTreeKey& key,
-                                              double t_exit) __attribute__((always_inline)) {
-        if (decltype(axis)::value && t_exit < free_exit) {
+    // Per voxel of a ray, evaluating it with `eval`, except that voxels the ray leaves at a
+    // fraction t_exit in (t_lo, t_hi) of its length are the free valley without evaluating.
+    auto visitor = [&](double t_lo, double t_hi, const auto& eval) {
+      return [&sink, eval, t_lo, t_hi, l_free](const octomap::OcTreeKey& key,
+                                               double t_exit) __attribute__((always_inline)) {
+        if (t_exit > t_lo && t_exit < t_hi) {
           sink(key, l_free);
         } else {
           eval(key);
@@ -324,16 +345,13 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
       const octomap::OcTreeKey& far_key = ray.far_key;
       octomap::OcTreeKey from_key = origin_key;
       if (ray.start > 0.0 && !coordToKeySafe(*tree_, from.x(), from.y(), from.z(), &from_key)) continue;
+      double s_lo = 0.0, s_hi = -1.0;  // the ray's stretch (distance from the origin) known free
+      if (shortcuts) freeStretch(ray, beam.direction, pure_free_until, off_axis_free_until, tan_full, &s_lo, &s_hi);
+      const double t_lo = (s_lo - ray.start) / (length - ray.start), t_hi = (s_hi - ray.start) / (length - ray.start);
       if (level_beam) {  // its rays stay in the origin's layer: from.z == far.z exactly
-        if (ray.axis) {
-          traverseLevel(*tree_, from, far, from_key, far_key, visitor(std::true_type(), evaluate_level));
-        } else {
-          traverseLevel(*tree_, from, far, from_key, far_key, visitor(std::false_type(), evaluate_level));
-        }
-      } else if (ray.axis) {
-        traverseVoxels(*tree_, from, far, from_key, far_key, visitor(std::true_type(), evaluate));
+        traverseLevel(*tree_, from, far, from_key, far_key, visitor(t_lo, t_hi, evaluate_level));
       } else {
-        traverseVoxels(*tree_, from, far, from_key, far_key, visitor(std::false_type(), evaluate));
+        traverseVoxels(*tree_, from, far, from_key, far_key, visitor(t_lo, t_hi, evaluate));
       }
     }
   }
@@ -350,10 +368,10 @@ std::vector<KeyUpdate> ScanInserter::computeUpdates(const Eigen::Vector3d& origi
 // The evidence of the beams prepareBeams kept, into the window begun over their box.
 void ScanInserter::traceIntoWindow(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
                                    const std::vector<Beam>& beams, double half_angle) {
-  traceBeams(origin, origin_key, beams, half_angle,
-             [this](const octomap::OcTreeKey& key, float value) __attribute__((always_inline)) {
-               evidence_.add(key, value);
-             });
+  traceBeams(
+      origin, origin_key, beams, half_angle,
+      [this](const octomap::OcTreeKey& key, float value) __attribute__((always_inline)) { evidence_.add(key, value); },
+      /*shortcuts=*/true);
 }
 
 // Each voxel's combined update of the beams prepareBeams kept (`box` is theirs).
@@ -370,17 +388,21 @@ std::vector<KeyUpdate> ScanInserter::combinedUpdates(const Eigen::Vector3d& orig
   }
   // Too large a box for a window: the same combining in a hash map.
   std::unordered_map<octomap::OcTreeKey, std::uint32_t, octomap::OcTreeKey::KeyHash> sparse;
-  traceBeams(origin, origin_key, beams, half_angle, [&sparse](const octomap::OcTreeKey& key, float value) {
-    std::uint32_t& code = sparse[key];
-    code = std::max(code, ScanEvidence::code(value));
-  });
+  traceBeams(
+      origin, origin_key, beams, half_angle,
+      [&sparse](const octomap::OcTreeKey& key, float value) {
+        std::uint32_t& code = sparse[key];
+        code = std::max(code, ScanEvidence::code(value));
+      },
+      /*shortcuts=*/true);
   for (const auto& [key, code] : sparse) {
     if (code != 0) append(key, ScanEvidence::value(code));
   }
   return updates;
 }
 
-void ScanInserter::traceEvidence(const Scan& scan, const std::function<void(const octomap::OcTreeKey&, float)>& fn) {
+void ScanInserter::traceEvidence(const Scan& scan, const std::function<void(const octomap::OcTreeKey&, float)>& fn,
+                                 bool shortcuts) {
   if (!validateScanHeader(scan).empty()) return;
   const std::vector<Beam> beams = beamsOf(scan, nullptr);
   const Eigen::Vector3d origin = scan.sensor_pose.translation();
@@ -388,7 +410,7 @@ void ScanInserter::traceEvidence(const Scan& scan, const std::function<void(cons
   if (!coordToKeySafe(*tree_, origin.x(), origin.y(), origin.z(), &origin_key)) return;
   const double half_angle = model_.halfAngleFor(scan.angle_increment);
   prepareBeams(origin, origin_key, beams, std::tan(half_angle));
-  traceBeams(origin, origin_key, beams, half_angle, fn);
+  traceBeams(origin, origin_key, beams, half_angle, fn, shortcuts);
 }
 
 // A level scan (the sensor's x-y plane horizontal) stays in the layer of its origin: every beam,
