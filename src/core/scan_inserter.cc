@@ -237,7 +237,7 @@ KeyBox ScanInserter::prepareBeams(const Eigen::Vector3d& origin, const octomap::
 //    pure_free_until suffices;
 //  - off it, s sin(a) < tan_full (s cos(a) - h) puts it inside the full-weight part of the cone,
 //    and s + h < off_axis_free_until before the end of the free valley there.
-// (1e-6 m spares the tests from rounding in the walk's exit distances.)
+// (1e-6 m of slack covers rounding in the walk's exit distances.)
 void ScanInserter::freeStretch(const Ray& ray, const Eigen::Vector3d& axis, double pure_free_until,
                                double off_axis_free_until, double tan_full, double* s_lo, double* s_hi) const {
   constexpr double kSlack = 1e-6;
