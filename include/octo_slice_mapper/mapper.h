@@ -90,6 +90,8 @@ class Mapper {
  private:
   void adopt(std::unique_ptr<octomap::OcTree> tree);
   InsertResult record(InsertResult result);  // slice update + statistics
+  // A snapshot's copies (the slice, its band, the kept scans if asked), without the octree.
+  MapSnapshot sliceAndScans(bool with_scans) const;
 
   MapperOptions options_;
   std::unique_ptr<octomap::OcTree> tree_;

@@ -93,24 +93,22 @@ OptimizedMap Mapper::optimize(bool warm_start, const ProgressFn& progress) const
 
 MapSnapshot Mapper::snapshot(bool with_scans) {
   if (lent_) throw std::logic_error("mapper: the octree is already lent");
-  MapSnapshot snap;
+  MapSnapshot snap = sliceAndScans(with_scans);
   snap.tree = &tree();
   lent_ = true;
   inserter_->setOctreeLent(true);
-  snap.slice = gridImageOf(*slice_);
-  snap.band_lo = slice_->bandMinKey();
-  snap.band_hi = slice_->bandMaxKey();
-  if (with_scans) snap.scans = store_.scans();
   return snap;
 }
 
-MapSnapshot Mapper::optimizationInput() const {
-  MapSnapshot input;
-  input.slice = gridImageOf(*slice_);
-  input.band_lo = slice_->bandMinKey();
-  input.band_hi = slice_->bandMaxKey();
-  input.scans = store_.scans();
-  return input;
+MapSnapshot Mapper::optimizationInput() const { return sliceAndScans(/*with_scans=*/true); }
+
+MapSnapshot Mapper::sliceAndScans(bool with_scans) const {
+  MapSnapshot copy;
+  copy.slice = gridImageOf(*slice_);
+  copy.band_lo = slice_->bandMinKey();
+  copy.band_hi = slice_->bandMaxKey();
+  if (with_scans) copy.scans = store_.scans();
+  return copy;
 }
 
 void Mapper::endSnapshot() {
@@ -122,9 +120,11 @@ void Mapper::applyOptimized(const GridImage& grid) {
   if (lent_) throw std::logic_error("mapper: applyOptimized while the octree is lent");
   inserter_->flush();
   const std::vector<octomap::OcTreeKey> keys = writeGridIntoBand(grid, slice_->bandMinKey(), slice_->bandMaxKey(), tree_.get());
-  for (const octomap::OcTreeKey& k : keys) inserter_->forgetCached(k);  // it holds the values from before
   KeyBox box;
-  for (const octomap::OcTreeKey& k : keys) box.add(k);
+  for (const octomap::OcTreeKey& k : keys) {
+    inserter_->forgetCached(k);  // it holds the values from before
+    box.add(k);
+  }
   slice_->updateColumns(keys, box);
 }
 

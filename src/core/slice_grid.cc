@@ -169,7 +169,7 @@ void SliceGrid::updateColumns(const std::vector<octomap::OcTreeKey>& keys, const
   ensureCovers(box.min[0], box.min[1], box.max[0], box.max[1]);
   for (const octomap::OcTreeKey& k : keys) {
     if (k[2] < band_lo_ || k[2] > band_hi_) continue;
-    layer_may_be_known_[k[2] - band_lo_] = true;
+    noteLayers(k[2], k[2]);
     data_[std::size_t(k[1] - origin_key_y_) * width_ + (k[0] - origin_key_x_)] = columnValue(k[0], k[1]);
   }
 }
