@@ -7,7 +7,11 @@
 //   (d) this project's insertion with its full inverse sensor model into the octree (ScanInserter),
 //       and (d+) the node's Mapper, which also keeps the 2D slice and the scans for the global pass;
 //   (e) a floor for any method that ends with an OcTree: only building (d)'s final map, every leaf
-//       written once with its final value, in octree order (setValuesInTreeOrder), no scans at all.
+//       written once with its final value, in octree order (setValuesInTreeOrder), no scans at all;
+//   (f) what (d) costs when finding the voxels and evaluating the model are free: each scan's
+//       combined updates, worked out beforehand (not timed), applied through the layer cache with
+//       updateNode's arithmetic, and the final flush. A floor for any method that gives (d)'s map
+//       by updating per scan, as exactness to updateNode requires.
 // All get the same returns (readings below the range limit); (d) also clears along no-returns,
 // which (a)-(c) are not given. Each repetition maps all scans into a fresh map with each method in
 // turn; medians over repetitions.
@@ -91,6 +95,49 @@ class FlatGrid {
   std::vector<float> cells_;
 };
 
+// (f): each level scan's combined updates from ScanInserter (not timed), then only their application
+// through a LayerCache and the final flush (timed). ms per scan.
+double applyOnly(const std::vector<osm::Scan>& scans, octomap::OcTree* tree) {
+  osm::ScanInserter tracer(tree, osm::InsertOptions{});  // finds the updates; never applies any
+  osm::LayerCache cache(tree);
+  Clock::duration timed{};
+  for (const osm::Scan& s : scans) {
+    const std::vector<osm::KeyUpdate> updates =
+        tracer.computeUpdates(s.sensor_pose.translation(), tracer.beamsOf(s, nullptr),
+                              tracer.model().halfAngleFor(s.angle_increment));
+    if (updates.empty()) continue;
+    osm::KeyBox box;
+    for (const osm::KeyUpdate& u : updates) box.add(u.key);
+    const auto t0 = Clock::now();
+    if (box.min[2] == box.max[2]) {  // a level scan: one layer, as ScanInserter applies it
+      osm::LayerCache::Layer& layer = cache.layer(box.min[2]);
+      cache.cover(&layer, box.min[0], box.min[1], box.max[0], box.max[1]);
+      for (const osm::KeyUpdate& u : updates) cache.apply(layer, u.key[0], u.key[1], u.log_odds);
+    } else {
+      for (const osm::KeyUpdate& u : updates) cache.apply(u.key, u.log_odds);
+    }
+    timed += Clock::now() - t0;
+  }
+  const auto t0 = Clock::now();
+  cache.flush();
+  const Clock::duration flush = Clock::now() - t0;
+  std::fprintf(stderr, "  (f): applying %.3f ms/scan, final flush %.3f ms/scan\n",
+               std::chrono::duration<double, std::milli>(timed).count() / scans.size(),
+               std::chrono::duration<double, std::milli>(flush).count() / scans.size());
+  timed += flush;
+  return std::chrono::duration<double, std::milli>(timed).count() / scans.size();
+}
+
+// Same leaves with the same log-odds (pruning is the same for the same values).
+bool sameLeaves(const octomap::OcTree& a, const octomap::OcTree& b) {
+  if (a.getNumLeafNodes() != b.getNumLeafNodes()) return false;
+  for (auto it = a.begin_leafs(), end = a.end_leafs(); it != end; ++it) {
+    const octomap::OcTreeNode* n = b.search(it.getKey(), it.getDepth());
+    if (!n || n->getLogOdds() != it->getLogOdds()) return false;
+  }
+  return true;
+}
+
 double msPerScan(std::size_t scans, const std::function<void()>& run) {
   const auto t0 = Clock::now();
   run();
@@ -119,8 +166,9 @@ int main(int argc, char** argv) {
   const std::vector<std::pair<std::string, std::string>> datasets = {
       {"intel", data + "/intel_corrected/intel-corrected.log.gz"},
       {"fr079", data + "/fr079_corrected/freiburg-079-corrected.log.gz"}};
-  std::printf("%-6s %5s | %9s %9s %9s %9s %9s %9s | %7s %7s %7s %7s\n", "data", "res", "(a) srv", "(b) cloud",
-              "(c) flat", "(d) ours", "(d+) node", "(e) floor", "a/d", "d/c", "b/d", "e/c");
+  std::printf("%-6s %5s | %9s %9s %9s %9s %9s %9s %9s | %7s %7s %7s %7s %7s\n", "data", "res", "(a) srv",
+              "(b) cloud", "(c) flat", "(d) ours", "(d+) node", "(e) floor", "(f) apply", "a/d", "d/c", "b/d", "e/c",
+              "f/c");
   for (const auto& [name, path] : datasets) {
     if (!only.empty() && only != name) continue;
     std::string error;
@@ -139,7 +187,7 @@ int main(int argc, char** argv) {
       }
     }
     for (double res : resolutions) {
-      std::vector<double> a, b, c, d, dplus, e;
+      std::vector<double> a, b, c, d, dplus, e, f;
       for (int r = 0; r < repeats; ++r) {
         {
           octomap::OcTree tree(res);
@@ -161,8 +209,9 @@ int main(int argc, char** argv) {
             for (const CloudScan& p : points) grid.insert(p);
           }));
         }
+        octomap::OcTree tree_d(res);
         {
-          octomap::OcTree tree(res);
+          octomap::OcTree& tree = tree_d;
           tree.setClampingThresMin(0.12);
           tree.setClampingThresMax(0.97);
           osm::ScanInserter inserter(&tree, osm::InsertOptions{});
@@ -191,6 +240,16 @@ int main(int argc, char** argv) {
           }
         }
         {
+          octomap::OcTree applied(res);
+          applied.setClampingThresMin(0.12);
+          applied.setClampingThresMax(0.97);
+          f.push_back(applyOnly(scans, &applied));
+          if (!sameLeaves(applied, tree_d)) {
+            std::fprintf(stderr, "bench_insertion_methods: (f) did not give (d)'s map\n");
+            return 1;
+          }
+        }
+        {
           osm::MapperOptions options;
           options.resolution = res;
           osm::Mapper mapper(options);
@@ -199,15 +258,18 @@ int main(int argc, char** argv) {
             mapper.tree();  // flushes the insertion cache into the octree
           }));
         }
-        std::fprintf(stderr, "  %s %.2f repeat %d/%d: a %.3f b %.3f c %.3f d %.3f d+ %.3f e %.3f ms\n", name.c_str(),
-                     res, r + 1, repeats, a.back(), b.back(), c.back(), d.back(), dplus.back(), e.back());
+        std::fprintf(stderr, "  %s %.2f repeat %d/%d: a %.3f b %.3f c %.3f d %.3f d+ %.3f e %.3f f %.3f ms\n",
+                     name.c_str(), res, r + 1, repeats, a.back(), b.back(), c.back(), d.back(), dplus.back(), e.back(),
+                     f.back());
       }
-      const double ma = median(a), mb = median(b), mc = median(c), md = median(d), mdp = median(dplus), me = median(e);
-      std::printf("%-6s %5.2f | %9.3f %9.3f %9.3f %9.3f %9.3f %9.3f | %6.1fx %6.2fx %6.1fx %6.2fx\n", name.c_str(), res,
-                  ma, mb, mc, md, mdp, me, ma / md, md / mc, mb / md, me / mc);
+      const double ma = median(a), mb = median(b), mc = median(c), md = median(d), mdp = median(dplus), me = median(e),
+                   mf = median(f);
+      std::printf("%-6s %5.2f | %9.3f %9.3f %9.3f %9.3f %9.3f %9.3f %9.3f | %6.1fx %6.2fx %6.1fx %6.2fx %6.2fx\n",
+                  name.c_str(), res, ma, mb, mc, md, mdp, me, mf, ma / md, md / mc, mb / md, me / mc, mf / mc);
     }
   }
   std::printf("ms per scan, medians of %d; a/d: ours vs octomap_server (target >= 20x at 0.05 m); d/c: ours vs a "
-              "flat grid (target <= 2x); e/c: building the final octree alone vs the whole flat-grid job\n", repeats);
+              "flat grid (target <= 2x); e/c: building the final octree alone vs the whole flat-grid job; f/c: applying (d)'s "
+              "updates and flushing, without finding them, vs the flat grid\n", repeats);
   return 0;
 }
