@@ -15,7 +15,7 @@
 //   (g) (d)'s tracing and model into a dense 2D float grid instead of the octree: the same
 //       per-scan combined updates, applied with updateNode's arithmetic to a flat array. d/g is
 //       what keeping the octree costs over a flat grid for the same sensor model.
-// All get the same returns (readings below the range limit); (d) also clears along no-returns,
+// All get the same returns (readings below the range limit); (d)-(g) also clear along no-returns,
 // which (a)-(c) are not given. Each repetition maps all scans into a fresh map with each method in
 // turn; medians over repetitions.
 //
@@ -98,7 +98,7 @@ class FlatGrid {
   std::vector<float> cells_;
 };
 
-// (f): each level scan's combined updates from ScanInserter (not timed), then only their application
+// (f): each scan's combined updates from ScanInserter (not timed), then only their application
 // through a LayerCache and the final flush (timed). ms per scan.
 double applyOnly(const std::vector<osm::Scan>& scans, octomap::OcTree* tree) {
   osm::ScanInserter tracer(tree, osm::InsertOptions{});  // finds the updates; never applies any
@@ -143,6 +143,7 @@ bool sameLeaves(const octomap::OcTree& a, const octomap::OcTree& b) {
 
 // (g) A flat grid over a key rectangle that receives ScanInserter's combined updates with
 // updateNode's arithmetic: no change at the bound the update pushes towards, else add and clamp.
+// One layer: the logs' scans are level, so all of a scan's updates share the origin's z.
 class FlatModelGrid {
  public:
   FlatModelGrid(const octomap::OcTree& tree, double min_x, double min_y, double max_x, double max_y)
@@ -322,8 +323,9 @@ int main(int argc, char** argv) {
     }
   }
   std::printf("ms per scan, medians of %d; a/d: ours vs octomap_server (target >= 20x at 0.05 m); d/c: ours vs a "
-              "flat grid (target <= 2x); e/c: building the final octree alone vs the whole flat-grid job; f/c: applying (d)'s "
-              "updates and flushing, without finding them, vs the flat grid; d/g: ours vs the same tracing and model into a "
-              "flat grid\n", repeats);
+              "flat grid (target <= 2x); e/c: building the final octree alone vs the whole flat-grid job; f/c: "
+              "applying (d)'s updates and flushing, without finding them, vs the flat grid; d/g: ours vs the same "
+              "tracing and model into a flat grid\n",
+              repeats);
   return 0;
 }
