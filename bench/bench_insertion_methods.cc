@@ -1,4 +1,4 @@
-// bench_insertion_methods: ms per scan of four ways to put the same 2D lidar scans into a map, in
+// bench_insertion_methods: ms per scan of the ways to put the same 2D lidar scans into a map, in
 // one process, on the shared CARMEN datasets (issue 4):
 //   (a) octomap_server's method: free / occupied KeySets from computeRayKeys, then updateNode
 //       with hit 0.7 / miss 0.4 per key;
@@ -10,8 +10,8 @@
 //       written once with its final value, in octree order (setValuesInTreeOrder), no scans at all;
 //   (f) what (d) costs when finding the voxels and evaluating the model are free: each scan's
 //       combined updates, worked out beforehand (not timed), applied through the layer cache with
-//       updateNode's arithmetic, and the final flush. A floor for any method that gives (d)'s map
-//       by updating per scan, as exactness to updateNode requires;
+//       updateNode's arithmetic, and the final flush: with this cache, a floor for any method that
+//       gives (d)'s map by updating per scan, as exactness to updateNode requires;
 //   (g) (d)'s tracing and model into a dense 2D float grid instead of the octree: the same
 //       per-scan combined updates, applied with updateNode's arithmetic to a flat array. d/g is
 //       what keeping the octree costs over a flat grid for the same sensor model.
