@@ -98,6 +98,19 @@ class FlatGrid {
   std::vector<float> cells_;
 };
 
+// The clamping the node's Mapper gives its octree, for the trees (d)-(g) build without a Mapper.
+void clampLikeTheMapper(octomap::OcTree* tree) {
+  const osm::MapperOptions defaults;
+  tree->setClampingThresMin(defaults.clamp_min);
+  tree->setClampingThresMax(defaults.clamp_max);
+}
+
+// One scan's combined per-voxel updates, as (d) works them out, without applying them.
+std::vector<osm::KeyUpdate> scanUpdates(osm::ScanInserter* tracer, const osm::Scan& s) {
+  return tracer->computeUpdates(s.sensor_pose.translation(), tracer->beamsOf(s, nullptr),
+                                tracer->model().halfAngleFor(s.angle_increment));
+}
+
 // (f): each scan's combined updates from ScanInserter (not timed), then only their application
 // through a LayerCache and the final flush (timed). ms per scan.
 double applyOnly(const std::vector<osm::Scan>& scans, octomap::OcTree* tree) {
@@ -105,9 +118,7 @@ double applyOnly(const std::vector<osm::Scan>& scans, octomap::OcTree* tree) {
   osm::LayerCache cache(tree);
   Clock::duration timed{};
   for (const osm::Scan& s : scans) {
-    const std::vector<osm::KeyUpdate> updates =
-        tracer.computeUpdates(s.sensor_pose.translation(), tracer.beamsOf(s, nullptr),
-                              tracer.model().halfAngleFor(s.angle_increment));
+    const std::vector<osm::KeyUpdate> updates = scanUpdates(&tracer, s);
     if (updates.empty()) continue;
     osm::KeyBox box;
     for (const osm::KeyUpdate& u : updates) box.add(u.key);
@@ -245,18 +256,16 @@ int main(int argc, char** argv) {
         }
         octomap::OcTree tree_d(res);
         {
-          octomap::OcTree& tree = tree_d;
-          tree.setClampingThresMin(0.12);
-          tree.setClampingThresMax(0.97);
-          osm::ScanInserter inserter(&tree, osm::InsertOptions{});
+          clampLikeTheMapper(&tree_d);
+          osm::ScanInserter inserter(&tree_d, osm::InsertOptions{});
           d.push_back(msPerScan(scans.size(), [&] {
             for (const osm::Scan& s : scans) inserter.insert(s);
             inserter.flush();  // the octree brought up to date is part of the cost
           }));
           std::vector<osm::KeyUpdate> leaves;
-          for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it) {
+          for (auto it = tree_d.begin_leafs(), end = tree_d.end_leafs(); it != end; ++it) {
             // Pruned blocks as their single voxels, so the floor builds the same map.
-            const int size = 1 << (tree.getTreeDepth() - it.getDepth());
+            const int size = 1 << (tree_d.getTreeDepth() - it.getDepth());
             const octomap::OcTreeKey k = it.getIndexKey();
             for (int dz = 0; dz < size; ++dz)
               for (int dy = 0; dy < size; ++dy)
@@ -264,19 +273,17 @@ int main(int argc, char** argv) {
                   leaves.push_back({octomap::OcTreeKey(k[0] + dx, k[1] + dy, k[2] + dz), it->getLogOdds()});
           }
           octomap::OcTree rebuilt(res);
-          rebuilt.setClampingThresMin(0.12);
-          rebuilt.setClampingThresMax(0.97);
+          clampLikeTheMapper(&rebuilt);
           e.push_back(msPerScan(scans.size(), [&] { osm::setValuesInTreeOrder(&rebuilt, &leaves); }));
-          if (rebuilt.getNumLeafNodes() != tree.getNumLeafNodes()) {
-            std::fprintf(stderr, "bench_insertion_methods: (e) rebuilt %zu leaves, (d) has %zu\n",
-                         rebuilt.getNumLeafNodes(), tree.getNumLeafNodes());
+          if (!sameLeaves(rebuilt, tree_d)) {
+            std::fprintf(stderr, "bench_insertion_methods: (e) did not rebuild (d)'s map (%zu leaves, (d) has %zu)\n",
+                         rebuilt.getNumLeafNodes(), tree_d.getNumLeafNodes());
             return 1;
           }
         }
         {
           octomap::OcTree applied(res);
-          applied.setClampingThresMin(0.12);
-          applied.setClampingThresMax(0.97);
+          clampLikeTheMapper(&applied);
           f.push_back(applyOnly(scans, &applied));
           if (!sameLeaves(applied, tree_d)) {
             std::fprintf(stderr, "bench_insertion_methods: (f) did not give (d)'s map\n");
@@ -285,16 +292,14 @@ int main(int argc, char** argv) {
         }
         {
           octomap::OcTree keys(res);  // the tracer's key arithmetic; nothing is written to it
-          keys.setClampingThresMin(0.12);
-          keys.setClampingThresMax(0.97);
+          clampLikeTheMapper(&keys);
           osm::ScanInserter tracer(&keys, osm::InsertOptions{});
           // Our beams reach past the returns (no-return clearing, the model's margin behind a return).
           const double reach = tracer.options().model.no_return_clear_distance + 1.0;
           FlatModelGrid grid(keys, min_x - reach, min_y - reach, max_x + reach, max_y + reach);
           g.push_back(msPerScan(scans.size(), [&] {
             for (const osm::Scan& s : scans) {
-              grid.apply(tracer.computeUpdates(s.sensor_pose.translation(), tracer.beamsOf(s, nullptr),
-                                               tracer.model().halfAngleFor(s.angle_increment)));
+              grid.apply(scanUpdates(&tracer, s));
             }
           }));
           if (grid.outside() > 0) {
