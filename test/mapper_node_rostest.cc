@@ -3,6 +3,7 @@
 #include <geometry_msgs/TransformStamped.h>
 #include <map_msgs/OccupancyGridUpdate.h>
 #include <gtest/gtest.h>
+#include <nav_msgs/GetMap.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <ros/ros.h>
 #include <sensor_msgs/LaserScan.h>
@@ -10,6 +11,8 @@
 #include <std_srvs/Empty.h>
 #include <sys/stat.h>
 #include <tf2_ros/static_transform_broadcaster.h>
+
+#include <boost/make_shared.hpp>
 
 #include <atomic>
 #include <cmath>
@@ -175,6 +178,27 @@ TEST_F(MapperNodeTest, ResetClearsTheMap) {
   // And it maps again afterwards.
   scan_pub_.publish(scan([](double a) { return wallAt(2.0, a); }));
   ASSERT_TRUE(waitFor([this] { return cellAt(2.11, 0.0) > 50; }, 20.0));
+}
+
+TEST_F(MapperNodeTest, DynamicMapServiceAnswersWithTheCurrentSlice) {
+  std_srvs::Empty empty;
+  ASSERT_TRUE(ros::service::call("mapper_node/reset", empty));
+  nav_msgs::GetMap get;
+  ASSERT_TRUE(ros::service::call("dynamic_map", get));
+  EXPECT_TRUE(get.response.map.data.empty()) << "a reset map has no cells";
+  // The wall the later tests expect (the reset also emptied the kept scans): once the published
+  // map shows it, the service must show it too.
+  publishWall(2.0, 3);
+  ASSERT_TRUE(waitFor([this] { return cellAt(2.11, 0.0) > 50; }, 20.0));
+  ASSERT_TRUE(ros::service::call("dynamic_map", get));
+  const auto answered = boost::make_shared<nav_msgs::OccupancyGrid>(get.response.map);
+  EXPECT_EQ(answered->header.frame_id, "odom");
+  EXPECT_FLOAT_EQ(answered->info.resolution, map_->info.resolution);
+  EXPECT_EQ(answered->data.size(), std::size_t(answered->info.width) * answered->info.height);
+  EXPECT_GT(cellOf(answered, 2.11, 0.0), 50) << "the wall";
+  EXPECT_GE(cellOf(answered, 1.0, 0.0), 0) << "free space in front is known";
+  EXPECT_LT(cellOf(answered, 1.0, 0.0), 50);
+  EXPECT_EQ(cellOf(answered, 3.0, 0.0), -1) << "nothing is known behind the wall";
 }
 
 TEST_F(MapperNodeTest, OptimizeRunsTheGlobalPassAndPublishesItsMap) {

@@ -58,6 +58,9 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   optimize_srv_ = services.advertiseService("optimize", &MapperNode::onOptimize, this);
   service_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &service_queue_);
   service_spinner_->start();
+  // The slice on request, as gmapping and hector_mapping offer it. On the scans' queue, like the
+  // map publisher: it must not wait behind a long save or global pass.
+  get_map_srv_ = nh_.advertiseService("dynamic_map", &MapperNode::onGetMap, this);
 
   const uint32_t queue = static_cast<uint32_t>(std::max(1, options_.scan_queue_size));
   scan_sub_.subscribe(nh_, "scan", queue, ros::TransportHints().tcpNoDelay());
@@ -426,6 +429,12 @@ bool MapperNode::onReset(std_srvs::Empty::Request&, std_srvs::Empty::Response&) 
   mapper_.reset();
   map_changed_ = true;
   ROS_INFO("map reset");
+  return true;
+}
+
+bool MapperNode::onGetMap(nav_msgs::GetMap::Request&, nav_msgs::GetMap::Response& res) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  toOccupancyGrid(mapper_.slice(), options_.frame_id, ros::Time::now(), &res.map);
   return true;
 }
 

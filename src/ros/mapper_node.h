@@ -1,10 +1,12 @@
 // The ROS face of the mapper: tf2-filtered scans in, OccupancyGrid / markers out, save, reset and
 // the global pass. All mapping logic lives in the core Mapper; this class only converts and wires.
-// Scans are handled in order on the global callback queue; services run on a queue and thread of
-// their own, and save / optimize work on a snapshot, so they don't hold up scan insertion.
+// Scans (and dynamic_map) are handled in order on the global callback queue; the ~ services run on
+// a queue and thread of their own, and save / optimize work on a snapshot, so they don't hold up
+// scan insertion.
 #pragma once
 
 #include <message_filters/subscriber.h>
+#include <nav_msgs/GetMap.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
@@ -56,6 +58,7 @@ class MapperNode {
   void checkTimeJump(const ros::Time& stamp);
   bool onSaveMap(SaveMap::Request& req, SaveMap::Response& res);
   bool onReset(std_srvs::Empty::Request&, std_srvs::Empty::Response&);
+  bool onGetMap(nav_msgs::GetMap::Request&, nav_msgs::GetMap::Response& res);
   bool onOptimize(Optimize::Request& req, Optimize::Response& res);
   void noteServiceLock(const ros::WallTime& since);  // with mutex_ held
   // Writes the global pass's result into the live map's slice band (if ~write_optimized_into_map).
@@ -92,7 +95,7 @@ class MapperNode {
   ros::CallbackQueue service_queue_;
   std::unique_ptr<ros::AsyncSpinner> service_spinner_;
   std::mutex service_mutex_;  // one save / optimize / reset at a time
-  ros::ServiceServer save_srv_, reset_srv_, optimize_srv_;
+  ros::ServiceServer save_srv_, reset_srv_, optimize_srv_, get_map_srv_;
   ros::Timer publish_timer_, diagnostics_timer_;
   ros::WallTimer expire_timer_;
   PendingMessages<sensor_msgs::LaserScan> waiting_scans_;
