@@ -115,8 +115,10 @@ class ScanInserter {
     bool axis;
     octomap::OcTreeKey far_key;  // of its end, where the beam's trace ends
   };
-  void freeStretch(const Ray& ray, const Eigen::Vector3d& axis, double pure_free_until, double off_axis_free_until,
-                   double tan_full, double* s_lo, double* s_hi) const;
+  // `half_diagonal`: half a voxel's diagonal, as traceBeams has it.
+  static void freeStretch(const Ray& ray, const Eigen::Vector3d& axis, double pure_free_until,
+                          double off_axis_free_until, double tan_full, double half_diagonal, double* s_lo,
+                          double* s_hi);
   // Appends the beam's rays to `rays`.
   void fanOf(const Beam& beam, double tan_half, std::vector<Ray>* rays) const;
 

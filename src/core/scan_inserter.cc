@@ -239,9 +239,10 @@ KeyBox ScanInserter::prepareBeams(const Eigen::Vector3d& origin, const octomap::
 //    and s + h < off_axis_free_until before the end of the free valley there.
 // (1e-6 m of slack covers rounding in the walk's exit distances.)
 void ScanInserter::freeStretch(const Ray& ray, const Eigen::Vector3d& axis, double pure_free_until,
-                               double off_axis_free_until, double tan_full, double* s_lo, double* s_hi) const {
+                               double off_axis_free_until, double tan_full, double half_diagonal, double* s_lo,
+                               double* s_hi) {
   constexpr double kSlack = 1e-6;
-  const double h = 0.5 * std::sqrt(3.0) * tree_->getResolution() + kSlack;
+  const double h = half_diagonal + kSlack;
   if (ray.axis) {
     *s_lo = -1.0;
     *s_hi = pure_free_until - h;
@@ -346,7 +347,9 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
       octomap::OcTreeKey from_key = origin_key;
       if (ray.start > 0.0 && !coordToKeySafe(*tree_, from.x(), from.y(), from.z(), &from_key)) continue;
       double s_lo = 0.0, s_hi = -1.0;  // the ray's stretch (distance from the origin) known free
-      if (shortcuts) freeStretch(ray, beam.direction, pure_free_until, off_axis_free_until, tan_full, &s_lo, &s_hi);
+      if (shortcuts) {
+        freeStretch(ray, beam.direction, pure_free_until, off_axis_free_until, tan_full, half_diagonal, &s_lo, &s_hi);
+      }
       const double t_lo = (s_lo - ray.start) / (length - ray.start), t_hi = (s_hi - ray.start) / (length - ray.start);
       if (level_beam) {  // its rays stay in the origin's layer: from.z == far.z exactly
         traverseLevel(*tree_, from, far, from_key, far_key, visitor(t_lo, t_hi, evaluate_level));
