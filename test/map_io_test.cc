@@ -142,6 +142,63 @@ TEST_F(MapIoTest, PngIsAValidPicture) {
   EXPECT_EQ(bytes.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
 }
 
+namespace {
+// A small raster of unknown cells at `origin` (0.1 m cells).
+GridImage unknownGrid(int width, int height, double origin_x, double origin_y) {
+  GridImage g;
+  g.width = width, g.height = height, g.resolution = 0.1, g.origin_x = origin_x, g.origin_y = origin_y;
+  g.cells.assign(std::size_t(width) * height, -1);
+  return g;
+}
+}  // namespace
+
+TEST(InFrameOfTest, DrawsAGridInAnotherFrameCellForCell) {
+  const GridImage frame = unknownGrid(10, 8, 1.0, 2.0);
+  GridImage grid = unknownGrid(4, 4, 1.5, 2.3);  // 5 cells right of and 3 above the frame's corner
+  grid.cells[std::size_t(1) * grid.width + 2] = 100;
+  grid.cells[std::size_t(3) * grid.width + 0] = 0;
+  const GridImage out = inFrameOf(grid, frame);
+  EXPECT_EQ(out.width, frame.width);
+  EXPECT_EQ(out.height, frame.height);
+  EXPECT_NEAR(out.origin_x, frame.origin_x, 1e-12);
+  EXPECT_NEAR(out.origin_y, frame.origin_y, 1e-12);
+  int known = 0;
+  for (int j = 0; j < out.height; ++j) {
+    for (int i = 0; i < out.width; ++i) known += out.at(i, j) >= 0;
+  }
+  EXPECT_EQ(known, 2);
+  EXPECT_EQ(out.at(7, 4), 100);
+  EXPECT_EQ(out.at(5, 6), 0);
+}
+
+TEST(InFrameOfTest, GrowsTheFrameToKeepEveryKnownCell) {
+  const GridImage frame = unknownGrid(10, 8, 1.0, 2.0);
+  GridImage grid = unknownGrid(3, 3, 0.7, 2.0);  // starts 3 cells left of the frame
+  grid.cells[0] = 100;                            // that leftmost column, bottom row
+  grid.cells[std::size_t(2) * grid.width + 2] = 0;
+  const GridImage out = inFrameOf(grid, frame);
+  EXPECT_EQ(out.width, 13);
+  EXPECT_EQ(out.height, 8);
+  EXPECT_NEAR(out.origin_x, 0.7, 1e-12);
+  EXPECT_NEAR(out.origin_y, 2.0, 1e-12);
+  EXPECT_EQ(out.at(0, 0), 100);
+  EXPECT_EQ(out.at(2, 2), 0);
+  // Unknown cells of the grid outside the frame do not grow it.
+  GridImage far_unknown = unknownGrid(3, 3, -5.0, -5.0);
+  const GridImage same = inFrameOf(far_unknown, frame);
+  EXPECT_EQ(same.width, frame.width);
+  EXPECT_EQ(same.height, frame.height);
+}
+
+TEST(InFrameOfTest, LeavesAGridOfAnotherResolutionAlone) {
+  GridImage grid = unknownGrid(3, 3, 0.0, 0.0);
+  grid.resolution = 0.05;
+  grid.cells[4] = 100;
+  const GridImage out = inFrameOf(grid, unknownGrid(10, 8, 1.0, 2.0));
+  EXPECT_EQ(out.width, 3);
+  EXPECT_EQ(out.cells, grid.cells);
+}
+
 TEST_F(MapIoTest, FailedSaveLeavesNothingHalfWritten) {
   std::string error;
   EXPECT_FALSE(saveBinaryTree(mapper_.tree(), dir_ + "/missing/m.bt", &error));

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 
+#include <cmath>
+
 #include "octo_slice_mapper/map_evaluation.h"
 #include "octo_slice_mapper/map_io.h"
 #include "octo_slice_mapper/mapper.h"
@@ -52,7 +54,9 @@ TEST_F(OptimizedMapTest, OptimizedGridGoesIntoTheBandAndIntoTheBtFile) {
   std::vector<std::string> written;
   std::string error;
   const std::size_t leaves_before = mapper_->tree().getNumLeafNodes();
-  ASSERT_TRUE(saveOptimizedSet(mapper_->tree(), mapper_->slice().bandMinKey(), mapper_->slice().bandMaxKey(), optimized.grid, dir + "/m", &written, &error))
+  const GridImage incremental = gridImageOf(mapper_->slice());
+  ASSERT_TRUE(saveOptimizedSet(mapper_->tree(), mapper_->slice().bandMinKey(), mapper_->slice().bandMaxKey(),
+                               optimized.grid, incremental, dir + "/m", &written, &error))
       << error;
   EXPECT_EQ(written, (std::vector<std::string>{dir + "/m_optimized.bt", dir + "/m_optimized.pgm",
                                                dir + "/m_optimized.yaml", dir + "/m_optimized.png"}));
@@ -78,7 +82,25 @@ TEST_F(OptimizedMapTest, OptimizedGridGoesIntoTheBandAndIntoTheBtFile) {
   EXPECT_EQ(agree, checked);
   GridImage pgm;
   ASSERT_TRUE(loadPgmYaml(dir + "/m_optimized.yaml", &pgm, &error)) << error;
-  EXPECT_EQ(pgm.width, optimized.grid.width);
+  // The 2D files are drawn in the incremental map's frame (which holds every cell the pass knows),
+  // so that the two maps overlay cell for cell; each known cell keeps its state there.
+  EXPECT_EQ(pgm.width, incremental.width);
+  EXPECT_EQ(pgm.height, incremental.height);
+  EXPECT_NEAR(pgm.origin_x, incremental.origin_x, 1e-6);
+  EXPECT_NEAR(pgm.origin_y, incremental.origin_y, 1e-6);
+  std::size_t compared = 0;
+  for (int j = 0; j < optimized.grid.height; ++j) {
+    for (int i = 0; i < optimized.grid.width; ++i) {
+      const int v = optimized.grid.at(i, j);
+      if (v < 0) continue;
+      const int pi = int(std::lround((optimized.grid.origin_x - pgm.origin_x) / pgm.resolution)) + i;
+      const int pj = int(std::lround((optimized.grid.origin_y - pgm.origin_y) / pgm.resolution)) + j;
+      ASSERT_TRUE(pi >= 0 && pj >= 0 && pi < pgm.width && pj < pgm.height) << i << ", " << j;
+      ASSERT_EQ(pgm.at(pi, pj), v) << i << ", " << j;
+      ++compared;
+    }
+  }
+  EXPECT_GT(compared, 1000u);
   std::system(("rm -rf " + dir).c_str());
 }
 

@@ -32,6 +32,10 @@ struct GridImage {
 GridImage cropToKnown(const GridImage& grid, int margin_cells = 5);
 // The slice's known area (plus `margin_cells` of unknown around it) as a raster.
 GridImage gridImageOf(const SliceGrid& slice, int margin_cells = 5);
+// `grid` redrawn in `frame`'s extent (both on the same lattice of cells), grown where `grid` knows
+// cells outside it. Two maps of one place drawn in one frame overlay cell for cell, and their
+// pictures come out at the same scale. Returned unchanged if the resolutions differ.
+GridImage inFrameOf(const GridImage& grid, const GridImage& frame);
 
 // map_server thresholds: occupied above 0.65, free below 0.196 (its defaults).
 struct PgmOptions {

@@ -31,8 +31,10 @@ std::vector<octomap::OcTreeKey> writeGridIntoBand(const GridImage& grid, unsigne
                                                   octomap::OcTree* tree);
 
 // Writes PREFIX_optimized.{bt,pgm,yaml,png}: the .bt is a copy of `tree` with `grid` written into
-// its band (the live tree is not changed); the 2D files show `grid` itself.
+// its band (the live tree is not changed); the 2D files show `grid` itself, drawn in the frame of
+// `incremental` (the incremental map saved beside it), so that the two overlay cell for cell.
 bool saveOptimizedSet(const octomap::OcTree& tree, unsigned band_lo, unsigned band_hi, const GridImage& grid,
-                      const std::string& prefix, std::vector<std::string>* written, std::string* error);
+                      const GridImage& incremental, const std::string& prefix, std::vector<std::string>* written,
+                      std::string* error);
 
 }  // namespace octo_slice_mapper

@@ -131,6 +131,35 @@ GridImage gridImageOf(const SliceGrid& slice, int margin_cells) {
   return cropToKnown(full, margin_cells);
 }
 
+GridImage inFrameOf(const GridImage& grid, const GridImage& frame) {
+  const double res = frame.resolution;
+  if (frame.width <= 0 || frame.height <= 0 || std::abs(grid.resolution - res) > 1e-9 * res) return grid;
+  // Whole cells between the two origins: both grids come from the same octree's voxel columns.
+  const int di = static_cast<int>(std::lround((grid.origin_x - frame.origin_x) / res));
+  const int dj = static_cast<int>(std::lround((grid.origin_y - frame.origin_y) / res));
+  int i0 = 0, j0 = 0, i1 = frame.width - 1, j1 = frame.height - 1;
+  for (int j = 0; j < grid.height; ++j) {
+    for (int i = 0; i < grid.width; ++i) {
+      if (grid.at(i, j) == kUnknownCell) continue;
+      i0 = std::min(i0, i + di), i1 = std::max(i1, i + di), j0 = std::min(j0, j + dj), j1 = std::max(j1, j + dj);
+    }
+  }
+  GridImage out;
+  out.resolution = res;
+  out.width = i1 - i0 + 1;
+  out.height = j1 - j0 + 1;
+  out.origin_x = frame.origin_x + i0 * res;
+  out.origin_y = frame.origin_y + j0 * res;
+  out.cells.assign(std::size_t(out.width) * out.height, kUnknownCell);
+  for (int j = 0; j < grid.height; ++j) {
+    for (int i = 0; i < grid.width; ++i) {
+      const std::int8_t v = grid.at(i, j);
+      if (v != kUnknownCell) out.cells[std::size_t(j + dj - j0) * out.width + (i + di - i0)] = v;
+    }
+  }
+  return out;
+}
+
 bool addPgmYaml(const GridImage& grid, const std::string& prefix, FileSet* files, std::string* error,
                 const PgmOptions& options) {
   if (grid.width <= 0 || grid.height <= 0) {

@@ -51,13 +51,15 @@ std::vector<octomap::OcTreeKey> writeGridIntoBand(const GridImage& grid, unsigne
 }
 
 bool saveOptimizedSet(const octomap::OcTree& tree, unsigned band_lo, unsigned band_hi, const GridImage& grid,
-                      const std::string& prefix, std::vector<std::string>* written, std::string* error) {
+                      const GridImage& incremental, const std::string& prefix, std::vector<std::string>* written,
+                      std::string* error) {
   octomap::OcTree copy(tree);
   writeGridIntoBand(grid, band_lo, band_hi, &copy);
   const std::string base = prefix + "_optimized";
+  const GridImage framed = inFrameOf(grid, incremental);
   FileSet files;
-  return addBinaryTree(copy, base + ".bt", &files, error) && addPgmYaml(grid, base, &files, error) &&
-         addPng(grid, base + ".png", &files, error) && writeFilesAtomically(files, written, error);
+  return addBinaryTree(copy, base + ".bt", &files, error) && addPgmYaml(framed, base, &files, error) &&
+         addPng(framed, base + ".png", &files, error) && writeFilesAtomically(files, written, error);
 }
 
 }  // namespace octo_slice_mapper

@@ -327,8 +327,8 @@ bool MapperNode::onSaveMap(SaveMap::Request& req, SaveMap::Response& res) {
   } else if (res.success && options_.optimize_on_save) {
     optimized = std::make_unique<OptimizedMap>(optimizeSnapshot(snapshot, options_.optimize_warm_start));
     global_pass = "; " + describe(optimized->report);
-    res.success = saveOptimizedSet(*snapshot.tree, snapshot.band_lo, snapshot.band_hi, optimized->grid, prefix,
-                                   &res.files, &error);
+    res.success = saveOptimizedSet(*snapshot.tree, snapshot.band_lo, snapshot.band_hi, optimized->grid,
+                                   snapshot.slice, prefix, &res.files, &error);
   }
   loan.end();
   if (optimized) applyOptimizedToMap(optimized->grid);

@@ -250,7 +250,9 @@ int main(int argc, char** argv) {
   if (args.optimize) {
     optimized = mapper->optimize(args.warm_start, [&](const std::string& stage, double f) { bar.update(stage, f); });
     bar.finish();
-    if (!osm::saveOptimizedSet(mapper->tree(), mapper->slice().bandMinKey(), mapper->slice().bandMaxKey(), optimized.grid, args.out, &files, &error)) {
+    // In the incremental map's frame: the two pictures overlay cell for cell, at the same scale.
+    if (!osm::saveOptimizedSet(mapper->tree(), mapper->slice().bandMinKey(), mapper->slice().bandMaxKey(),
+                               optimized.grid, incremental, args.out, &files, &error)) {
       std::cerr << "octo_slice_map: " << error << "\n";
       return 1;
     }
