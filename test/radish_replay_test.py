@@ -1,0 +1,115 @@
+#!/usr/bin/env python3
+"""A Radish log mapped in a real ROS session gives the offline tool's map, byte for byte.
+
+The first scans of each shared dataset go through carmen2bag and replay.launch (roscore, rosbag
+play with simulated time, tf, mapper_node saving on shutdown with the global pass), and through
+octo_slice_map straight from the log. Both must write the same .bt, .ot and .pgm, incremental and
+optimized: the node's adapters (LaserScan, tf, stamps, no-returns) lose and add nothing.
+
+Usage: radish_replay_test.py RESULT_XML BIN_DIR  (JUnit, as the other tests write).
+The datasets are read from $OSM_DATA_DIR (default: ../shared/data beside the checkout)."""
+import gzip
+import os
+import shutil
+import socket
+import subprocess
+import sys
+import tempfile
+import xml.etree.ElementTree as ET
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+DATA = os.environ.get("OSM_DATA_DIR", os.path.join(HERE, "..", "..", "shared", "data"))
+DATASETS = [("intel", "intel_corrected/intel-corrected.log.gz"),
+            ("fr079", "fr079_corrected/freiburg-079-corrected.log.gz")]
+SCANS = 150        # per dataset: enough to close rooms, short enough for the suite
+RATE = "40"        # bag time per wall second; the node keeps up (no scan is skipped, checked below)
+COMPARED = [".bt", ".ot", ".pgm", "_optimized.bt", "_optimized.pgm"]
+
+
+def head_of_log(src, dst, scans):
+    """The log's lines up to (not including) its (scans + 1)th laser record."""
+    seen = 0
+    with gzip.open(src, "rt") as inp, open(dst, "w") as out:
+        for line in inp:
+            if line.startswith(("FLASER", "RLASER", "ROBOTLASER1")):
+                seen += 1
+                if seen > scans:
+                    break
+            out.write(line)
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def run(cmd, log, env=None):
+    with open(log, "w") as out:
+        return subprocess.run(cmd, stdout=out, stderr=subprocess.STDOUT, timeout=300, env=env).returncode
+
+
+def cases(bin_dir, work):
+    for name, rel in DATASETS:
+        path = os.path.join(DATA, rel)
+        if not os.path.exists(path):
+            yield name, False, f"{path} is missing (set OSM_DATA_DIR)"
+            continue
+        log = os.path.join(work, name + ".log")
+        head_of_log(path, log, SCANS)
+        bag = os.path.join(work, name + ".bag")
+        if run([os.path.join(bin_dir, "carmen2bag"), log, bag], os.path.join(work, name + "_carmen2bag.txt")):
+            yield name, False, "carmen2bag failed"
+            continue
+        offline = os.path.join(work, name + "_offline")
+        if run([os.path.join(bin_dir, "octo_slice_map"), log, "--out", offline, "--optimize", "--warm-start"],
+               os.path.join(work, name + "_offline.txt")):
+            yield name, False, "octo_slice_map failed"
+            continue
+        params = os.path.join(work, name + "_params.yaml")
+        with open(params, "w") as f:
+            f.write(f"maps_dir: {work}\n")
+        launch_log = os.path.join(work, name + "_roslaunch.txt")
+        port = free_port()  # a roscore of its own, whatever else runs on this machine
+        env = dict(os.environ, ROS_MASTER_URI=f"http://localhost:{port}")
+        code = run(["roslaunch", "-p", str(port), "octo_slice_mapper", "replay.launch", "bag:=" + bag,
+                    "save:=" + name + "_ros", "optimize:=true", "warm_start:=true", "rate:=" + RATE,
+                    "params_file:=" + params], launch_log, env)
+        summary = [l for l in open(launch_log) if "session summary" in l]
+        if code or not summary:
+            yield name, False, f"roslaunch exited {code} without a session summary (see {launch_log})"
+            continue
+        if f"scans_inserted={SCANS} scans_skipped=0" not in summary[0]:
+            yield name, False, "the session did not insert every scan: " + summary[0].strip()
+            continue
+        for suffix in COMPARED:
+            a, b = offline + suffix, os.path.join(work, name + "_ros" + suffix)
+            same = os.path.exists(a) and os.path.exists(b) and open(a, "rb").read() == open(b, "rb").read()
+            yield f"{name}{suffix}", same, f"{b} differs from {a}"
+
+
+def main():
+    result_xml, bin_dir = sys.argv[1], sys.argv[2]
+    work = tempfile.mkdtemp(prefix="osm_radish_replay_")
+    suite = ET.Element("testsuite", name="radish_replay")
+    failures = 0
+    for name, ok, message in cases(bin_dir, work):
+        case = ET.SubElement(suite, "testcase", classname="radish_replay", name=name)
+        if not ok:
+            failures += 1
+            ET.SubElement(case, "failure", message=message)
+            print("FAILED:", name, "-", message)
+    suite.set("tests", str(len(suite)))
+    suite.set("failures", str(failures))
+    suite.set("errors", "0")
+    ET.ElementTree(suite).write(result_xml)
+    print(f"{len(suite) - failures} passed, {failures} failed")
+    if failures:
+        print("kept for a look:", work)
+    else:
+        shutil.rmtree(work)
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
