@@ -6,9 +6,10 @@ Usage: launch_params_test.py RESULT_XML  (JUnit, as the other tests write)."""
 import os
 import subprocess
 import sys
-import xml.etree.ElementTree as ET
 
 import yaml
+
+from junit_cases import write_junit
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 LAUNCH = os.path.join(HERE, "..", "launch")
@@ -34,20 +35,7 @@ def cases():
 
 
 def main():
-    suite = ET.Element("testsuite", name="launch_params")
-    failures = 0
-    for name, ok, message in cases():
-        case = ET.SubElement(suite, "testcase", classname="launch_params", name=name)
-        if not ok:
-            failures += 1
-            ET.SubElement(case, "failure", message=message)
-            print("FAILED:", name, "-", message)
-    suite.set("tests", str(len(suite)))
-    suite.set("failures", str(failures))
-    suite.set("errors", "0")
-    ET.ElementTree(suite).write(sys.argv[1])
-    print(f"{len(suite) - failures} passed, {failures} failed")
-    return 1 if failures else 0
+    return 1 if write_junit("launch_params", cases(), sys.argv[1]) else 0
 
 
 if __name__ == "__main__":

@@ -15,7 +15,8 @@ import socket
 import subprocess
 import sys
 import tempfile
-import xml.etree.ElementTree as ET
+
+from junit_cases import write_junit
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 DATA = os.environ.get("OSM_DATA_DIR", os.path.join(HERE, "..", "..", "shared", "data"))
@@ -91,19 +92,7 @@ def cases(bin_dir, work):
 def main():
     result_xml, bin_dir = sys.argv[1], sys.argv[2]
     work = tempfile.mkdtemp(prefix="osm_radish_replay_")
-    suite = ET.Element("testsuite", name="radish_replay")
-    failures = 0
-    for name, ok, message in cases(bin_dir, work):
-        case = ET.SubElement(suite, "testcase", classname="radish_replay", name=name)
-        if not ok:
-            failures += 1
-            ET.SubElement(case, "failure", message=message)
-            print("FAILED:", name, "-", message)
-    suite.set("tests", str(len(suite)))
-    suite.set("failures", str(failures))
-    suite.set("errors", "0")
-    ET.ElementTree(suite).write(result_xml)
-    print(f"{len(suite) - failures} passed, {failures} failed")
+    failures = write_junit("radish_replay", cases(bin_dir, work), result_xml)
     if failures:
         print("kept for a look:", work)
     else:
