@@ -6,6 +6,10 @@ play with simulated time, tf, mapper_node saving on shutdown with the global pas
 octo_slice_map straight from the log. Both must write the same .bt, .ot and .pgm, incremental and
 optimized: the node's adapters (LaserScan, tf, stamps, no-returns) lose and add nothing.
 
+Not in scripts/test yet: a replay can still differ now and then, for two known reasons (README,
+"Running it"): the last scan may be lost when the player's end stops the session, and the tf
+filter can hand scans on out of order.
+
 Usage: radish_replay_test.py RESULT_XML BIN_DIR  (JUnit, as the other tests write).
 The datasets are read from $OSM_DATA_DIR (default: ../shared/data beside the checkout)."""
 import gzip
@@ -46,8 +50,13 @@ def free_port():
 
 
 def run(cmd, log, env=None):
+    """The command's exit code (its output in `log`); a hang counts as a failure, not a crash."""
     with open(log, "w") as out:
-        return subprocess.run(cmd, stdout=out, stderr=subprocess.STDOUT, timeout=300, env=env).returncode
+        try:
+            return subprocess.run(cmd, stdout=out, stderr=subprocess.STDOUT, timeout=300, env=env).returncode
+        except subprocess.TimeoutExpired:
+            out.write(f"\n(killed after 300 s: {' '.join(cmd)})\n")
+            return "a timeout"
 
 
 def cases(bin_dir, work):
@@ -78,7 +87,7 @@ def cases(bin_dir, work):
                     "params_file:=" + params], launch_log, env)
         summary = [l for l in open(launch_log) if "session summary" in l]
         if code or not summary:
-            yield name, False, f"roslaunch exited {code} without a session summary (see {launch_log})"
+            yield name, False, f"roslaunch ended with {code!r} (summary written: {bool(summary)}; see {launch_log})"
             continue
         if f"scans_inserted={SCANS} scans_skipped=0" not in summary[0]:
             yield name, False, "the session did not insert every scan: " + summary[0].strip()
