@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <limits>
 #include <map>
 #include <random>
 #include <thread>
@@ -103,6 +105,40 @@ TEST(LayerCache, FastPathGivesTheSameOctreeAsUpdateNodePerVoxel) {
   EXPECT_GT(tilted, 10u);
   EXPECT_GT(flushes, 10u);
   EXPECT_GT(reference.getNumLeafNodes(), 10000u);
+  expectSameTree(fast, reference);
+}
+
+// Returns so far apart that the scan's key box is too large for the evidence window: the
+// updates are combined in a hash map instead, and must give the reference's octree too, on the
+// level path and on the generic one.
+TEST(LayerCache, TooLargeABoxForTheWindowGivesTheSameOctree) {
+  octomap::OcTree fast(0.05), reference(0.05), tracer_tree(0.05);
+  for (octomap::OcTree* t : {&fast, &reference, &tracer_tree}) clampLikeTheMapper(t);
+  ScanInserter inserter(&fast, InsertOptions{});
+  ScanInserter tracer(&tracer_tree, InsertOptions{});
+  // Two returns 210 m out, one along x and one along y (the beams between them read nothing).
+  constexpr float kRange = 210.0f, kIncrement = 0.01f;
+  const int beams = int(std::lround(M_PI / 2 / kIncrement)) + 1;
+  std::vector<float> ranges(beams, std::numeric_limits<float>::quiet_NaN());
+  ranges.front() = ranges.back() = kRange;
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translation().z() = 0.26;
+  Scan level = makeScan(pose, 0.0f, kIncrement, ranges, 0.02f, 250.0f);
+  KeyBox box;
+  for (const Eigen::Vector3d& p : {Eigen::Vector3d(0, 0, 0.26), Eigen::Vector3d(kRange, 0, 0.26),
+                                   Eigen::Vector3d(0, kRange, 0.26)}) {
+    box.add(fast.coordToKey(p.x(), p.y(), p.z()));
+  }
+  ScanEvidence window;
+  ASSERT_FALSE(window.begin(box, 1)) << "the scan must be too large for a window";
+  Scan tilted = level;
+  tilted.sensor_pose.rotate(Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitY()));
+  for (const Scan& scan : {level, tilted}) {
+    ASSERT_TRUE(inserter.insert(scan).ok());
+    insertByUpdateNode(&tracer, &reference, scan);
+  }
+  inserter.flush();
+  EXPECT_GT(reference.getNumLeafNodes(), 8000u);
   expectSameTree(fast, reference);
 }
 

@@ -99,8 +99,9 @@ class ScanInserter {
                            InsertResult result);
   KeyBox prepareBeams(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
                       const std::vector<Beam>& beams, double tan_half);
-  std::vector<KeyUpdate> combinedUpdates(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
-                                         const std::vector<Beam>& beams, double half_angle, const KeyBox& box);
+  // A scan's combined updates through a hash map, for a box too large for the evidence window.
+  std::vector<KeyUpdate> sparseUpdates(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
+                                       const std::vector<Beam>& beams, double half_angle);
   void traceIntoWindow(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
                        const std::vector<Beam>& beams, double half_angle);
   // With `shortcuts`, voxels that are surely in a beam's free valley get l_free without the

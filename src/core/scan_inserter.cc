@@ -365,7 +365,11 @@ std::vector<KeyUpdate> ScanInserter::computeUpdates(const Eigen::Vector3d& origi
   octomap::OcTreeKey origin_key;
   if (!coordToKeySafe(*tree_, origin.x(), origin.y(), origin.z(), &origin_key)) return {};
   const KeyBox box = prepareBeams(origin, origin_key, beams, std::tan(half_angle));
-  return combinedUpdates(origin, origin_key, beams, half_angle, box);
+  if (!evidence_.begin(box, max_visits_)) return sparseUpdates(origin, origin_key, beams, half_angle);
+  std::vector<KeyUpdate> updates;
+  traceIntoWindow(origin, origin_key, beams, half_angle);
+  evidence_.drain([&updates](const octomap::OcTreeKey& key, float update) { updates.push_back({key, update}); });
+  return updates;
 }
 
 // The evidence of the beams prepareBeams kept, into the window begun over their box.
@@ -377,19 +381,9 @@ void ScanInserter::traceIntoWindow(const Eigen::Vector3d& origin, const octomap:
       /*shortcuts=*/true);
 }
 
-// Each voxel's combined update of the beams prepareBeams kept (`box` is theirs).
-std::vector<KeyUpdate> ScanInserter::combinedUpdates(const Eigen::Vector3d& origin,
-                                                     const octomap::OcTreeKey& origin_key,
-                                                     const std::vector<Beam>& beams, double half_angle,
-                                                     const KeyBox& box) {
-  std::vector<KeyUpdate> updates;
-  auto append = [&updates](const octomap::OcTreeKey& key, float update) { updates.push_back({key, update}); };
-  if (evidence_.begin(box, max_visits_)) {
-    traceIntoWindow(origin, origin_key, beams, half_angle);
-    evidence_.drain(append);
-    return updates;
-  }
-  // Too large a box for a window: the same combining in a hash map.
+// The same combining as the window's, in a hash map: for a scan whose box is too large for one.
+std::vector<KeyUpdate> ScanInserter::sparseUpdates(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
+                                                   const std::vector<Beam>& beams, double half_angle) {
   std::unordered_map<octomap::OcTreeKey, std::uint32_t, octomap::OcTreeKey::KeyHash> sparse;
   traceBeams(
       origin, origin_key, beams, half_angle,
@@ -398,8 +392,9 @@ std::vector<KeyUpdate> ScanInserter::combinedUpdates(const Eigen::Vector3d& orig
         code = std::max(code, ScanEvidence::code(value));
       },
       /*shortcuts=*/true);
+  std::vector<KeyUpdate> updates;
   for (const auto& [key, code] : sparse) {
-    if (code != 0) append(key, ScanEvidence::value(code));
+    if (code != 0) updates.push_back({key, ScanEvidence::value(code)});
   }
   return updates;
 }
@@ -425,7 +420,7 @@ InsertResult ScanInserter::insertLevel(const Eigen::Vector3d& origin, const std:
   if (!coordToKeySafe(*tree_, origin.x(), origin.y(), origin.z(), &origin_key)) return result;
   const KeyBox box = prepareBeams(origin, origin_key, beams, std::tan(half_angle));
   if (!evidence_.begin(box, max_visits_)) {
-    return apply(combinedUpdates(origin, origin_key, beams, half_angle, box), result);  // too large a box
+    return apply(sparseUpdates(origin, origin_key, beams, half_angle), result);  // too large a box
   }
   traceIntoWindow(origin, origin_key, beams, half_angle);
   LayerCache::Layer& layer = cache_.layer(origin_key[2]);
