@@ -296,6 +296,47 @@ TEST_F(MapperNodeTest, TimeJumpingBackIsDetectedAndMappingContinues) {
   ASSERT_TRUE(waitFor([this] { return cellAt(4.11, 0.0) > 50; }, 20.0)) << "mapping stopped after the jump";
 }
 
+// Scan A waits in the tf filter for its frame; scan B, sent after it, could be handed on at once.
+// The map must still take A first (updates clamp, so the order changes the map): B is held.
+TEST_F(MapperNodeTest, AScanOvertakingOneThatWaitsForTfIsInsertedAfterIt) {
+  std::vector<ros::Time> update_stamps;
+  ros::Subscriber sub = nh_.subscribe<map_msgs::OccupancyGridUpdate>(
+      "map_updates", 50, [&](const map_msgs::OccupancyGridUpdate::ConstPtr& u) { update_stamps.push_back(u->header.stamp); });
+  // The wall once first, so that A and B touch cells the grid has already: they come back as updates.
+  publishWall(2.0, 1);
+  ASSERT_TRUE(waitFor([this] { return cellAt(2.11, 0.0) > 50; }, 20.0));
+  ASSERT_TRUE(waitFor([&sub] { return sub.getNumPublishers() > 0; }, 10.0));
+  ASSERT_TRUE(waitFor([this] { return diagnostic("scans_held_for_order") >= 0; }, 10.0)) << "no /diagnostics";
+  const double held_before = diagnostic("scans_held_for_order");
+
+  auto a = scan([](double angle) { return wallAt(2.0, angle); }, "laser_late");
+  auto b = scan([](double angle) { return wallAt(2.0, angle); });
+  b.header.stamp = a.header.stamp + ros::Duration(0.01);
+  scan_pub_.publish(a);
+  scan_pub_.publish(b);
+  ros::WallDuration(0.1).sleep();  // B is there and transformable; A waits (under ~transform_timeout)
+  geometry_msgs::TransformStamped late;
+  late.header.frame_id = "base_link";
+  late.header.stamp = ros::Time::now();
+  late.child_frame_id = "laser_late";
+  late.transform.translation.x = 0.10;
+  late.transform.translation.z = 0.26;
+  late.transform.rotation.w = 1.0;
+  static_tf_.sendTransform(late);
+
+  const auto index_of = [&update_stamps](const ros::Time& stamp) {
+    for (std::size_t k = 0; k < update_stamps.size(); ++k) {
+      if (update_stamps[k] == stamp) return static_cast<int>(k);
+    }
+    return -1;
+  };
+  ASSERT_TRUE(waitFor([&] { return index_of(a.header.stamp) >= 0 && index_of(b.header.stamp) >= 0; }, 20.0))
+      << "A inserted: " << (index_of(a.header.stamp) >= 0) << ", B inserted: " << (index_of(b.header.stamp) >= 0);
+  EXPECT_LT(index_of(a.header.stamp), index_of(b.header.stamp)) << "B was inserted before A";
+  EXPECT_TRUE(waitFor([&] { return diagnostic("scans_held_for_order") >= held_before + 1; }, 20.0))
+      << "scans_held_for_order " << diagnostic("scans_held_for_order") << " (before " << held_before << ")";
+}
+
 TEST_F(MapperNodeTest, CorruptMapFileStartsAnEmptyMapInsteadOfCrashing) {
   // mapper_node_bad_resume was given a corrupt ~map_file: it runs, and its map is empty.
   ASSERT_TRUE(ros::service::waitForService("mapper_node_bad_resume/save_map", 10000)) << "the node did not come up";

@@ -76,7 +76,15 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   scan_filter_ = std::make_unique<tf2_ros::MessageFilter<sensor_msgs::LaserScan>>(scan_sub_, tf_buffer_,
                                                                                  options_.frame_id, queue, nh_);
   expire_timer_ = nh_.createWallTimer(ros::WallDuration(0.05), &MapperNode::expireWaitingScans, this);
-  scan_filter_->registerCallback(boost::bind(&MapperNode::onScan, this, boost::placeholders::_1));
+  scan_filter_->registerCallback(boost::function<void(const sensor_msgs::LaserScan::ConstPtr&)>(
+      [this](const sensor_msgs::LaserScan::ConstPtr& msg) {
+        if (!waiting_scans_.delivered(msg)) return;  // timed out and counted already
+        handleReadyScans();
+        if (waiting_scans_.held() > 0) {  // this one: an earlier scan still waits for its transform
+          std::lock_guard<std::mutex> lock(mutex_);
+          counters_.scans_held_for_order++;
+        }
+      }));
   scan_filter_->registerFailureCallback(boost::bind(&MapperNode::onScanTransformFailure, this, boost::placeholders::_1, boost::placeholders::_2));
 
   cloud_sub_.subscribe(nh_, "cloud_in", 5);
@@ -84,10 +92,14 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
       [this](const sensor_msgs::PointCloud2::ConstPtr& msg) { waiting_clouds_.arrived(msg, ros::WallTime::now()); }));
   cloud_filter_ = std::make_unique<tf2_ros::MessageFilter<sensor_msgs::PointCloud2>>(cloud_sub_, tf_buffer_,
                                                                                     options_.frame_id, 5, nh_);
-  cloud_filter_->registerCallback(boost::bind(&MapperNode::onCloud, this, boost::placeholders::_1));
+  cloud_filter_->registerCallback(boost::function<void(const sensor_msgs::PointCloud2::ConstPtr&)>(
+      [this](const sensor_msgs::PointCloud2::ConstPtr& msg) {
+        if (waiting_clouds_.delivered(msg)) handleReadyClouds();
+      }));
   cloud_filter_->registerFailureCallback(boost::function<void(const sensor_msgs::PointCloud2::ConstPtr&, tf2_ros::FilterFailureReason)>(
       [this](const sensor_msgs::PointCloud2::ConstPtr& msg, tf2_ros::FilterFailureReason reason) {
-        if (waiting_clouds_.resolved(msg)) onTransformFailure(msg, reason);  // else counted at its timeout
+        if (waiting_clouds_.dropped(msg)) onTransformFailure(msg, reason);  // else counted at its timeout
+        handleReadyClouds();
       }));
 
   publish_timer_ = nh_.createTimer(ros::Duration(1.0 / std::max(0.1, options_.publish_rate)), &MapperNode::publish, this);
@@ -107,6 +119,17 @@ void MapperNode::skip(const std::string& reason, const std::string& message) {
 void MapperNode::expireWaitingScans(const ros::WallTimerEvent&) {
   expireWaiting(&waiting_scans_, "scan");
   expireWaiting(&waiting_clouds_, "point cloud");
+  // A message given up no longer holds back the ones that arrived after it.
+  handleReadyScans();
+  handleReadyClouds();
+}
+
+void MapperNode::handleReadyScans() {
+  for (const sensor_msgs::LaserScan::ConstPtr& msg : waiting_scans_.takeReady()) insertScan(msg);
+}
+
+void MapperNode::handleReadyClouds() {
+  for (const sensor_msgs::PointCloud2::ConstPtr& msg : waiting_clouds_.takeReady()) insertCloud(msg);
 }
 
 // Messages still waiting for their transform after ~transform_timeout are given up and counted
@@ -134,7 +157,8 @@ void MapperNode::expireWaiting(PendingMessages<M>* waiting, const std::string& w
 
 void MapperNode::onScanTransformFailure(const sensor_msgs::LaserScan::ConstPtr& msg,
                                         tf2_ros::FilterFailureReason reason) {
-  if (!waiting_scans_.resolved(msg)) return;  // counted when it timed out
+  if (!waiting_scans_.dropped(msg)) return;  // counted when it timed out
+  handleReadyScans();  // the ones it held back
   onTransformFailure(msg, reason);
   // A current scan "older than the tf buffer" means the buffer holds data from the future: the
   // clock jumped back (a bag --loop) and tf2_ros's own check missed it (a late message from before
@@ -192,8 +216,7 @@ void MapperNode::checkTimeJump(const ros::Time& stamp) {
   }
 }
 
-void MapperNode::onScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
-  if (!waiting_scans_.resolved(msg)) return;  // timed out and counted already
+void MapperNode::insertScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
   Eigen::Isometry3d pose;
   if (!sensorPose(msg->header, &pose)) return;
   checkTimeJump(msg->header.stamp);
@@ -231,8 +254,7 @@ void MapperNode::onScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
   afterInsert(result, (ros::WallTime::now() - start).toSec(), /*from_scan=*/true);
 }
 
-void MapperNode::onCloud(const sensor_msgs::PointCloud2::ConstPtr& msg) {
-  if (!waiting_clouds_.resolved(msg)) return;  // timed out and counted already
+void MapperNode::insertCloud(const sensor_msgs::PointCloud2::ConstPtr& msg) {
   Eigen::Isometry3d pose;
   if (!sensorPose(msg->header, &pose)) return;
   pcl::PointCloud<pcl::PointXYZ> cloud;
@@ -443,7 +465,8 @@ std::string MapperNode::summary() const {
   const MapperStats& s = mapper_.stats();
   std::ostringstream out;
   out << "scans_inserted=" << s.scans_inserted << " scans_skipped=" << counters_.skippedTotal()
-      << " time_jumps_back=" << counters_.time_jumps_back;
+      << " time_jumps_back=" << counters_.time_jumps_back
+      << " scans_held_for_order=" << counters_.scans_held_for_order;
   for (const auto& kv : counters_.skipped) out << " skipped_" << kv.first << '=' << kv.second;
   out << " readings: " << s.readings.summary() << " voxels=" << mapper_.tree().getNumLeafNodes()
       << " known_cells=" << mapper_.slice().knownCells() << " insert_ms_per_scan="

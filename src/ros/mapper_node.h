@@ -40,8 +40,11 @@ class MapperNode {
   std::string summary() const;
 
  private:
-  void onScan(const sensor_msgs::LaserScan::ConstPtr& msg);
-  void onCloud(const sensor_msgs::PointCloud2::ConstPtr& msg);
+  // Scans and clouds the tf filter delivered, in the order they arrived (see PendingMessages).
+  void handleReadyScans();
+  void handleReadyClouds();
+  void insertScan(const sensor_msgs::LaserScan::ConstPtr& msg);
+  void insertCloud(const sensor_msgs::PointCloud2::ConstPtr& msg);
   void onScanTransformFailure(const sensor_msgs::LaserScan::ConstPtr& msg, tf2_ros::FilterFailureReason reason);
   template <typename M>
   void onTransformFailure(const boost::shared_ptr<const M>& msg, tf2_ros::FilterFailureReason reason);

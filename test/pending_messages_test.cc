@@ -1,0 +1,106 @@
+#include "ros/pending_messages.h"
+
+#include <gtest/gtest.h>
+#include <std_msgs/Header.h>
+
+#include <boost/make_shared.hpp>
+
+using namespace octo_slice_mapper::ros_adapter;
+
+namespace {
+
+using Pending = PendingMessages<std_msgs::Header>;
+using Ptr = Pending::Ptr;
+
+Ptr message(std::uint32_t seq) {
+  auto m = boost::make_shared<std_msgs::Header>();
+  m->seq = seq;
+  return m;
+}
+
+std::vector<std::uint32_t> seqs(const std::vector<Ptr>& msgs) {
+  std::vector<std::uint32_t> out;
+  for (const Ptr& m : msgs) out.push_back(m->seq);
+  return out;
+}
+
+const auto kNever = [](const Ptr&) { return false; };
+const ros::WallDuration kTimeout(0.5);
+
+}  // namespace
+
+TEST(PendingMessages, InOrderDeliveryIsHandedOutAtOnce) {
+  Pending p;
+  const ros::WallTime t(100.0);
+  const Ptr a = message(1), b = message(2);
+  p.arrived(a, t);
+  ASSERT_TRUE(p.delivered(a));
+  EXPECT_EQ(seqs(p.takeReady()), std::vector<std::uint32_t>{1});
+  p.arrived(b, t);
+  ASSERT_TRUE(p.delivered(b));
+  EXPECT_EQ(seqs(p.takeReady()), std::vector<std::uint32_t>{2});
+  EXPECT_TRUE(p.takeReady().empty());  // each once
+  EXPECT_EQ(p.waiting(), 0u);
+  EXPECT_EQ(p.held(), 0u);
+}
+
+// The race the node met replaying Intel: scan 2's transform was there when it arrived, scan 1 was
+// still waiting for tf's thread to hand it on.
+TEST(PendingMessages, AnOvertakingMessageWaitsForTheEarlierOne) {
+  Pending p;
+  const ros::WallTime t(100.0);
+  const Ptr a = message(1), b = message(2), c = message(3);
+  p.arrived(a, t);
+  p.arrived(b, t);
+  p.arrived(c, t);
+  ASSERT_TRUE(p.delivered(b));
+  ASSERT_TRUE(p.delivered(c));
+  EXPECT_TRUE(p.takeReady().empty());
+  EXPECT_EQ(p.held(), 2u);
+  EXPECT_EQ(p.waiting(), 1u);
+  ASSERT_TRUE(p.delivered(a));
+  EXPECT_EQ(seqs(p.takeReady()), (std::vector<std::uint32_t>{1, 2, 3}));
+  EXPECT_EQ(p.held(), 0u);
+}
+
+TEST(PendingMessages, ADroppedMessageReleasesTheOnesBehindIt) {
+  Pending p;
+  const ros::WallTime t(100.0);
+  const Ptr a = message(1), b = message(2), c = message(3);
+  p.arrived(a, t);
+  p.arrived(b, t);
+  p.arrived(c, t);
+  ASSERT_TRUE(p.delivered(c));
+  EXPECT_TRUE(p.dropped(b));  // still to be counted
+  EXPECT_TRUE(p.takeReady().empty());  // a still waits
+  EXPECT_TRUE(p.dropped(a));
+  EXPECT_EQ(seqs(p.takeReady()), std::vector<std::uint32_t>{3});
+}
+
+TEST(PendingMessages, ATimedOutMessageHoldsNothingBackAndIsIgnoredLater) {
+  Pending p;
+  const Ptr a = message(1), b = message(2), c = message(3);
+  p.arrived(a, ros::WallTime(100.0));
+  p.arrived(b, ros::WallTime(100.4));
+  p.arrived(c, ros::WallTime(100.4));
+  ASSERT_TRUE(p.delivered(b));
+  EXPECT_TRUE(p.takeReady().empty());
+  // Only a has waited longer than the timeout; c has waited long enough but its transform is there.
+  EXPECT_EQ(seqs(p.expire(ros::WallTime(100.6), kTimeout, kNever)), std::vector<std::uint32_t>{1});
+  EXPECT_TRUE(p.expire(ros::WallTime(101.0), kTimeout, [&](const Ptr& m) { return m == c; }).empty());
+  EXPECT_EQ(seqs(p.takeReady()), std::vector<std::uint32_t>{2});  // c still waits, nothing after it
+  EXPECT_FALSE(p.delivered(a));  // counted at its timeout
+  ASSERT_TRUE(p.delivered(c));
+  EXPECT_EQ(seqs(p.takeReady()), std::vector<std::uint32_t>{3});
+  EXPECT_EQ(p.waiting(), 0u);
+}
+
+TEST(PendingMessages, ATimedOutMessageDroppedLaterIsNotCountedTwice) {
+  Pending p;
+  const Ptr a = message(1);
+  p.arrived(a, ros::WallTime(100.0));
+  EXPECT_EQ(p.expire(ros::WallTime(101.0), kTimeout, kNever).size(), 1u);
+  EXPECT_TRUE(p.expire(ros::WallTime(102.0), kTimeout, kNever).empty());  // each once
+  EXPECT_FALSE(p.dropped(a));
+  EXPECT_EQ(p.waiting(), 0u);
+}
