@@ -281,7 +281,10 @@ void MapperNode::afterInsert(const InsertResult& result, double seconds, bool fr
   insert_seconds_ += seconds;
   if (from_scan) counters_.scans_inserted++;
   counters_.last_insert_ms = 1000.0 * seconds;
-  if (result.voxels_updated > 0) map_changed_ = true;
+  if (result.voxels_updated > 0) {
+    map_changed_ = true;
+    map_version_++;
+  }
 }
 
 void MapperNode::publish(const ros::TimerEvent&) {
@@ -334,10 +337,12 @@ bool MapperNode::onSaveMap(SaveMap::Request& req, SaveMap::Response& res) {
   }
   std::lock_guard<std::mutex> one_at_a_time(service_mutex_);
   MapSnapshot snapshot;
+  std::uint64_t saved_version = 0;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     const ros::WallTime held = ros::WallTime::now();
     snapshot = mapper_.snapshot(/*with_scans=*/options_.optimize_on_save);
+    saved_version = map_version_;
     noteServiceLock(held);
   }
   OctreeLoan loan(&mapper_, &mutex_);  // scans keep going into the insertion cache meanwhile
@@ -354,6 +359,11 @@ bool MapperNode::onSaveMap(SaveMap::Request& req, SaveMap::Response& res) {
   }
   loan.end();
   if (optimized) applyOptimizedToMap(optimized->grid);
+  if (res.success) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    last_saved_prefix_ = prefix;
+    last_saved_version_ = saved_version;
+  }
   if (res.success) {
     res.message = "saved";
     for (const std::string& f : res.files) res.message += " " + f;
@@ -431,6 +441,10 @@ bool MapperNode::onOptimize(Optimize::Request& req, Optimize::Response& res) {
   }
   const OptimizedMap optimized = optimizeSnapshot(snapshot, req.warm_start);
   applyOptimizedToMap(optimized.grid);
+  if (options_.write_optimized_into_map) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    map_version_++;
+  }
   const OptimizeReport& r = optimized.report;
   res.success = true;
   res.initial_log_likelihood = r.initial_log_likelihood;
@@ -450,6 +464,7 @@ bool MapperNode::onReset(std_srvs::Empty::Request&, std_srvs::Empty::Response&) 
   std::lock_guard<std::mutex> lock(mutex_);
   mapper_.reset();
   map_changed_ = true;
+  map_version_++;
   ROS_INFO("map reset");
   return true;
 }
@@ -475,10 +490,20 @@ std::string MapperNode::summary() const {
   return out.str();
 }
 
+bool MapperNode::savedAlready(const std::string& requested_prefix) const {
+  std::string prefix, error;
+  if (!resolveSavePrefix(options_.maps_dir, requested_prefix, options_.allow_any_path, &prefix, &error)) return false;
+  std::lock_guard<std::mutex> lock(mutex_);
+  return prefix == last_saved_prefix_ && map_version_ == last_saved_version_;
+}
+
 // Runs after ros::spin() returned; roscpp has shut rosconsole down by then, so print directly.
 void MapperNode::shutdown() {
   service_spinner_->stop();
-  if (!options_.save_on_shutdown.empty()) {
+  if (!options_.save_on_shutdown.empty() && savedAlready(options_.save_on_shutdown)) {
+    std::fprintf(stderr, "[mapper_node] save on shutdown: skipped: the map is unchanged since it was saved to %s\n",
+                 last_saved_prefix_.c_str());
+  } else if (!options_.save_on_shutdown.empty()) {
     SaveMap::Request req;
     SaveMap::Response res;
     req.prefix = options_.save_on_shutdown;

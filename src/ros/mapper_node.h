@@ -60,6 +60,8 @@ class MapperNode {
   // A scan stamped well before the last one: a bag restarted (--loop) or /clock reset.
   void checkTimeJump(const ros::Time& stamp);
   bool onSaveMap(SaveMap::Request& req, SaveMap::Response& res);
+  // True when `requested_prefix` was the last save's and the map has not changed since.
+  bool savedAlready(const std::string& requested_prefix) const;
   bool onReset(std_srvs::Empty::Request&, std_srvs::Empty::Response&);
   bool onGetMap(nav_msgs::GetMap::Request&, nav_msgs::GetMap::Response& res);
   bool onOptimize(Optimize::Request& req, Optimize::Response& res);
@@ -105,6 +107,11 @@ class MapperNode {
   PendingMessages<sensor_msgs::PointCloud2> waiting_clouds_;
 
   bool map_changed_ = true;
+  // Counts the changes to the map from scans, clouds, resets and ~optimize (not those a save's own
+  // global pass writes back), so that ~save_on_shutdown can skip a save that would repeat the last.
+  std::uint64_t map_version_ = 0;
+  std::string last_saved_prefix_;  // with the map_version_ it saved; guarded by mutex_
+  std::uint64_t last_saved_version_ = 0;
   std::uint64_t published_geometry_ = ~std::uint64_t{0};  // slice geometry of the last full map sent
   NodeCounters counters_;  // guarded by mutex_; map sizes filled in when reported
   std::uint64_t skipped_at_last_report_ = 0;
