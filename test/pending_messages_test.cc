@@ -24,7 +24,7 @@ std::vector<std::uint32_t> seqs(const std::vector<Ptr>& msgs) {
   return out;
 }
 
-const auto kNever = [](const Ptr&) { return false; };
+const auto kNoTransform = [](const Ptr&) { return false; };  // tf has no message's transform
 const ros::WallDuration kTimeout(0.5);
 
 }  // namespace
@@ -35,11 +35,11 @@ TEST(PendingMessages, InOrderDeliveryIsHandedOutAtOnce) {
   const Ptr a = message(1), b = message(2);
   p.arrived(a, t);
   ASSERT_TRUE(p.delivered(a));
-  EXPECT_EQ(seqs(p.takeReady()), std::vector<std::uint32_t>{1});
+  EXPECT_EQ(seqs(p.takeReady(kNoTransform)), std::vector<std::uint32_t>{1});
   p.arrived(b, t);
   ASSERT_TRUE(p.delivered(b));
-  EXPECT_EQ(seqs(p.takeReady()), std::vector<std::uint32_t>{2});
-  EXPECT_TRUE(p.takeReady().empty());  // each once
+  EXPECT_EQ(seqs(p.takeReady(kNoTransform)), std::vector<std::uint32_t>{2});
+  EXPECT_TRUE(p.takeReady(kNoTransform).empty());  // each once
   EXPECT_EQ(p.waiting(), 0u);
   EXPECT_EQ(p.held(), 0u);
 }
@@ -55,11 +55,11 @@ TEST(PendingMessages, AnOvertakingMessageWaitsForTheEarlierOne) {
   p.arrived(c, t);
   ASSERT_TRUE(p.delivered(b));
   ASSERT_TRUE(p.delivered(c));
-  EXPECT_TRUE(p.takeReady().empty());
+  EXPECT_TRUE(p.takeReady(kNoTransform).empty());
   EXPECT_EQ(p.held(), 2u);
   EXPECT_EQ(p.waiting(), 1u);
   ASSERT_TRUE(p.delivered(a));
-  EXPECT_EQ(seqs(p.takeReady()), (std::vector<std::uint32_t>{1, 2, 3}));
+  EXPECT_EQ(seqs(p.takeReady(kNoTransform)), (std::vector<std::uint32_t>{1, 2, 3}));
   EXPECT_EQ(p.held(), 0u);
 }
 
@@ -72,9 +72,9 @@ TEST(PendingMessages, ADroppedMessageReleasesTheOnesBehindIt) {
   p.arrived(c, t);
   ASSERT_TRUE(p.delivered(c));
   EXPECT_TRUE(p.dropped(b));  // still to be counted
-  EXPECT_TRUE(p.takeReady().empty());  // a still waits
+  EXPECT_TRUE(p.takeReady(kNoTransform).empty());  // a still waits
   EXPECT_TRUE(p.dropped(a));
-  EXPECT_EQ(seqs(p.takeReady()), std::vector<std::uint32_t>{3});
+  EXPECT_EQ(seqs(p.takeReady(kNoTransform)), std::vector<std::uint32_t>{3});
 }
 
 TEST(PendingMessages, ATimedOutMessageHoldsNothingBackAndIsIgnoredLater) {
@@ -84,14 +84,14 @@ TEST(PendingMessages, ATimedOutMessageHoldsNothingBackAndIsIgnoredLater) {
   p.arrived(b, ros::WallTime(100.4));
   p.arrived(c, ros::WallTime(100.4));
   ASSERT_TRUE(p.delivered(b));
-  EXPECT_TRUE(p.takeReady().empty());
+  EXPECT_TRUE(p.takeReady(kNoTransform).empty());
   // Only a has waited longer than the timeout; c has waited long enough but its transform is there.
-  EXPECT_EQ(seqs(p.expire(ros::WallTime(100.6), kTimeout, kNever)), std::vector<std::uint32_t>{1});
+  EXPECT_EQ(seqs(p.expire(ros::WallTime(100.6), kTimeout, kNoTransform)), std::vector<std::uint32_t>{1});
   EXPECT_TRUE(p.expire(ros::WallTime(101.0), kTimeout, [&](const Ptr& m) { return m == c; }).empty());
-  EXPECT_EQ(seqs(p.takeReady()), std::vector<std::uint32_t>{2});  // c still waits, nothing after it
+  EXPECT_EQ(seqs(p.takeReady(kNoTransform)), std::vector<std::uint32_t>{2});  // c still waits, nothing after it
   EXPECT_FALSE(p.delivered(a));  // counted at its timeout
   ASSERT_TRUE(p.delivered(c));
-  EXPECT_EQ(seqs(p.takeReady()), std::vector<std::uint32_t>{3});
+  EXPECT_EQ(seqs(p.takeReady(kNoTransform)), std::vector<std::uint32_t>{3});
   EXPECT_EQ(p.waiting(), 0u);
 }
 
@@ -99,8 +99,40 @@ TEST(PendingMessages, ATimedOutMessageDroppedLaterIsNotCountedTwice) {
   Pending p;
   const Ptr a = message(1);
   p.arrived(a, ros::WallTime(100.0));
-  EXPECT_EQ(p.expire(ros::WallTime(101.0), kTimeout, kNever).size(), 1u);
-  EXPECT_TRUE(p.expire(ros::WallTime(102.0), kTimeout, kNever).empty());  // each once
+  EXPECT_EQ(p.expire(ros::WallTime(101.0), kTimeout, kNoTransform).size(), 1u);
+  EXPECT_TRUE(p.expire(ros::WallTime(102.0), kTimeout, kNoTransform).empty());  // each once
   EXPECT_FALSE(p.dropped(a));
   EXPECT_EQ(p.waiting(), 0u);
+}
+
+// tf2_ros's MessageFilter can lose a delivery: the transform arrived while it was adding the
+// message. The message is taken over once its transform is there, in its turn.
+TEST(PendingMessages, AWaitingMessageWhoseTransformIsThereIsTakenOver) {
+  Pending p;
+  const ros::WallTime t(100.0);
+  const Ptr a = message(1), b = message(2), c = message(3);
+  p.arrived(a, t);
+  p.arrived(b, t);
+  p.arrived(c, t);
+  ASSERT_TRUE(p.delivered(b));
+  std::size_t taken_over = 0;
+  // a's transform is there, c's is not (and c holds nothing back: it is the last).
+  EXPECT_EQ(seqs(p.takeReady([&](const Ptr& m) { return m == a; }, &taken_over)),
+            (std::vector<std::uint32_t>{1, 2}));
+  EXPECT_EQ(taken_over, 1u);
+  EXPECT_EQ(p.waiting(), 1u);
+  EXPECT_FALSE(p.delivered(a)) << "a late delivery of a taken-over message must be ignored";
+  EXPECT_TRUE(p.takeReady(kNoTransform).empty());
+  ASSERT_TRUE(p.delivered(c));
+  EXPECT_EQ(seqs(p.takeReady(kNoTransform)), std::vector<std::uint32_t>{3});
+}
+
+TEST(PendingMessages, ATakenOverMessageDroppedLaterIsNotCounted) {
+  Pending p;
+  const Ptr a = message(1);
+  p.arrived(a, ros::WallTime(100.0));
+  EXPECT_EQ(p.takeReady([](const Ptr&) { return true; }).size(), 1u);
+  EXPECT_TRUE(p.takeReady([](const Ptr&) { return true; }).empty());  // once
+  EXPECT_TRUE(p.expire(ros::WallTime(101.0), kTimeout, kNoTransform).empty()) << "handed out, not to time out";
+  EXPECT_FALSE(p.dropped(a)) << "pushed out of the filter's queue after it was handled: no skip";
 }

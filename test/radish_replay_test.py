@@ -7,8 +7,9 @@ octo_slice_map straight from the log. Both must write the same .bt, .ot and .pgm
 optimized: the node's adapters (LaserScan, tf, stamps, no-returns) lose and add nothing.
 
 It also asks the session summary for every scan inserted, none skipped and no time jump back: it
-once lost the last scan when the player's end stopped the session, and the tf filter handed scans
-on out of order now and then (hence play_bag's grace period and the node's arrival order).
+once lost the last scan when the player's end stopped the session, the tf filter handed scans on
+out of order now and then, and now and then lost one (hence play_bag's grace period, and the
+node's arrival order and taking over of scans whose transform is there).
 
 Usage: radish_replay_test.py RESULT_XML BIN_DIR  (JUnit, as the other tests write).
 The datasets are read from $OSM_DATA_DIR (default: ../shared/data beside the checkout)."""

@@ -33,6 +33,7 @@ diagnostic_msgs::DiagnosticArray toDiagnostics(const NodeCounters& c, std::uint6
   add("waiting_for_tf", std::to_string(c.waiting_for_tf));
   add("time_jumps_back", std::to_string(c.time_jumps_back));
   add("scans_held_for_order", std::to_string(c.scans_held_for_order));
+  add("scans_taken_over", std::to_string(c.scans_taken_over));
   add("last_insert_ms", ms);
   std::snprintf(ms, sizeof(ms), "%.3f", c.max_insert_wait_ms);
   add("max_insert_wait_ms", ms);

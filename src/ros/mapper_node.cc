@@ -80,7 +80,7 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
       [this](const sensor_msgs::LaserScan::ConstPtr& msg) {
         if (!waiting_scans_.delivered(msg)) return;  // timed out and counted already
         handleReadyScans();
-        if (waiting_scans_.held() > 0) {  // this one: an earlier scan still waits for its transform
+        if (waiting_scans_.held() > 0) {  // this one: an earlier scan's transform is still missing
           std::lock_guard<std::mutex> lock(mutex_);
           counters_.scans_held_for_order++;
         }
@@ -124,21 +124,33 @@ void MapperNode::expireWaitingScans(const ros::WallTimerEvent&) {
   handleReadyClouds();
 }
 
+template <typename M>
+bool MapperNode::transformThere(const boost::shared_ptr<const M>& msg) {
+  return tf_buffer_.canTransform(options_.frame_id, msg->header.frame_id, msg->header.stamp);
+}
+
 void MapperNode::handleReadyScans() {
-  for (const sensor_msgs::LaserScan::ConstPtr& msg : waiting_scans_.takeReady()) insertScan(msg);
+  std::size_t taken_over = 0;
+  const auto ready = waiting_scans_.takeReady(
+      [this](const sensor_msgs::LaserScan::ConstPtr& msg) { return transformThere(msg); }, &taken_over);
+  if (taken_over > 0) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    counters_.scans_taken_over += taken_over;
+  }
+  for (const sensor_msgs::LaserScan::ConstPtr& msg : ready) insertScan(msg);
 }
 
 void MapperNode::handleReadyClouds() {
-  for (const sensor_msgs::PointCloud2::ConstPtr& msg : waiting_clouds_.takeReady()) insertCloud(msg);
+  const auto ready = waiting_clouds_.takeReady(
+      [this](const sensor_msgs::PointCloud2::ConstPtr& msg) { return transformThere(msg); });
+  for (const sensor_msgs::PointCloud2::ConstPtr& msg : ready) insertCloud(msg);
 }
 
 // Messages still waiting for their transform after ~transform_timeout are given up and counted
 // (the tf filter would otherwise hold them until newer ones push them out).
 template <typename M>
 void MapperNode::expireWaiting(PendingMessages<M>* waiting, const std::string& what) {
-  const auto transform_there = [this](const boost::shared_ptr<const M>& msg) {
-    return tf_buffer_.canTransform(options_.frame_id, msg->header.frame_id, msg->header.stamp);
-  };
+  const auto transform_there = [this](const boost::shared_ptr<const M>& msg) { return transformThere(msg); };
   const auto expired =
       waiting->expire(ros::WallTime::now(), ros::WallDuration(options_.transform_timeout), transform_there);
   for (const boost::shared_ptr<const M>& msg : expired) {
@@ -481,7 +493,7 @@ std::string MapperNode::summary() const {
   std::ostringstream out;
   out << "scans_inserted=" << s.scans_inserted << " scans_skipped=" << counters_.skippedTotal()
       << " time_jumps_back=" << counters_.time_jumps_back
-      << " scans_held_for_order=" << counters_.scans_held_for_order;
+      << " scans_held_for_order=" << counters_.scans_held_for_order << " scans_taken_over=" << counters_.scans_taken_over;
   for (const auto& kv : counters_.skipped) out << " skipped_" << kv.first << '=' << kv.second;
   out << " readings: " << s.readings.summary() << " voxels=" << mapper_.tree().getNumLeafNodes()
       << " known_cells=" << mapper_.slice().knownCells() << " insert_ms_per_scan="

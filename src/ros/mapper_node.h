@@ -41,6 +41,9 @@ class MapperNode {
 
  private:
   // Scans and clouds the tf filter delivered, in the order they arrived (see PendingMessages).
+  // Whether tf has the message's transform now.
+  template <typename M>
+  bool transformThere(const boost::shared_ptr<const M>& msg);
   void handleReadyScans();
   void handleReadyClouds();
   void insertScan(const sensor_msgs::LaserScan::ConstPtr& msg);

@@ -1,13 +1,17 @@
 // Messages between their arrival and their turn to be handled, for a tf2_ros::MessageFilter.
 //
-// Two things the filter does not do:
+// Three things the filter does not do:
 // - Time out. It waits without bound (a message leaves only when newer ones push it out of its
 //   queue); this records when each arrived so that the node can skip and count one that waited
 //   longer than a timeout, and ignore it should the filter deliver it after all.
 // - Keep order. A message that waited for its transform is handed on from tf's thread and can be
 //   overtaken by the next one, whose transform was already there when it arrived. Updates clamp,
-//   so the order changes the map: a delivered message is held here until every one that arrived
-//   before it has been delivered, dropped or timed out, and handed out in arrival order.
+//   so the order changes the map: messages are handed out here in arrival order.
+// - Always deliver. If the transform arrives while the filter is still adding the message, tf2
+//   fires the filter's request before the filter has recorded the message, and the message stays
+//   in its queue until pushed out (seen replaying Radish logs: 1 scan in a few hundred). So a
+//   waiting message whose transform is there is taken over: handed out as if delivered, and its
+//   delivery, should it come after all, ignored.
 //
 // Used from the node's (single-threaded) global queue only.
 #pragma once
@@ -28,55 +32,47 @@ class PendingMessages {
  public:
   using Ptr = boost::shared_ptr<const M>;
 
+  // Each message once: a recorded one is held on to, so no new message can have its address.
   void arrived(const Ptr& msg, const ros::WallTime& now) {
-    const auto old = order_.find(msg.get());
-    if (old != order_.end()) entries_.erase(old->second);  // the same message twice: its later arrival counts
     order_[msg.get()] = next_;
     entries_[next_++] = {msg, now, State::kWaiting};
   }
 
-  // The filter delivered `msg`. False when it had timed out already (and was counted then): ignore
-  // it. Otherwise it is ready, and takeReady() hands it out in its turn.
-  bool delivered(const Ptr& msg) {
-    Entry* e = find(msg);
-    if (!e) return true;  // not seen arriving (can't happen with the subscriber registered first)
-    if (e->state == State::kTimedOut) {
-      forget(msg);
-      return false;
-    }
-    e->state = State::kReady;
-    return true;
-  }
+  // The filter delivered `msg`. False when that is old news: it timed out (and was counted then)
+  // or was taken over. Otherwise takeReady() hands it out in its turn.
+  bool delivered(const Ptr& msg) { return letGo(msg, /*delivered=*/true); }
 
-  // The filter dropped `msg`. True when it is still to be counted; false when it had timed out
-  // already (and was counted then). Either way, it no longer holds later messages back.
-  bool dropped(const Ptr& msg) {
-    const Entry* e = find(msg);
-    const bool waiting = !e || e->state == State::kWaiting;
-    forget(msg);
-    return waiting;
-  }
+  // The filter dropped `msg`. True when it is to be counted as skipped; false when it timed out
+  // (counted then) or was taken over. Either way, it no longer holds later messages back.
+  bool dropped(const Ptr& msg) { return letGo(msg, /*delivered=*/false); }
 
-  // Delivered messages with no earlier one still waiting for the filter, oldest arrival first;
-  // each returned once.
-  std::vector<Ptr> takeReady() {
+  // The messages to handle now, oldest arrival first, each returned once: those the filter
+  // delivered and those still waiting whose transform is there (`transform_there`), up to the first
+  // one whose transform is missing. `taken_over` (if given) counts the latter.
+  template <typename Pred>
+  std::vector<Ptr> takeReady(Pred transform_there, std::size_t* taken_over = nullptr) {
     std::vector<Ptr> ready;
     for (auto it = entries_.begin(); it != entries_.end();) {
-      if (it->second.state == State::kWaiting) break;
-      if (it->second.state == State::kReady) {
-        ready.push_back(it->second.msg);
-        order_.erase(it->second.msg.get());
+      Entry& e = it->second;
+      if (e.state == State::kWaiting) {
+        if (!transform_there(e.msg)) break;
+        ready.push_back(e.msg);
+        e.state = State::kHandedOut;  // kept until the filter lets go of it
+        if (taken_over) ++*taken_over;
+        ++it;
+      } else if (e.state == State::kReady) {
+        ready.push_back(e.msg);
+        order_.erase(e.msg.get());
         it = entries_.erase(it);
       } else {
-        ++it;  // timed out: holds nothing back, stays until the filter lets go of it
+        ++it;  // timed out or handed out, still in the filter: holds nothing back
       }
     }
     return ready;
   }
 
-  // Messages waiting longer than `timeout` for which `still_possible` is false (e.g. their
-  // transform is still missing: one that is there now is only waiting its turn in a busy queue),
-  // each returned once. They stay recorded (holding the message, so its address can't be reused)
+  // Messages waiting longer than `timeout` for which `still_possible` is false (their transform
+  // is still missing; one whose transform is there is takeReady's), each returned once. They stay recorded (holding the message, so its address can't be reused)
   // until the filter lets go of them.
   template <typename Pred>
   std::vector<Ptr> expire(const ros::WallTime& now, const ros::WallDuration& timeout, Pred still_possible) {
@@ -93,26 +89,33 @@ class PendingMessages {
 
   // Still waiting for the filter.
   std::size_t waiting() const { return count(State::kWaiting); }
-  // Delivered, but held back behind an earlier one.
+  // Ready, but held back behind an earlier one whose transform is missing.
   std::size_t held() const { return count(State::kReady); }
 
  private:
-  enum class State { kWaiting, kReady, kTimedOut };
+  // kWaiting: in the filter; kReady: delivered, to be handed out; kTimedOut: given up (and
+  // counted), still in the filter; kHandedOut: taken over and handed out, still in the filter.
+  enum class State { kWaiting, kReady, kTimedOut, kHandedOut };
   struct Entry {
     Ptr msg;
     ros::WallTime arrived;
     State state;
   };
 
-  Entry* find(const Ptr& msg) {
-    const auto it = order_.find(msg.get());
-    return it == order_.end() ? nullptr : &entries_.at(it->second);
-  }
-  void forget(const Ptr& msg) {
-    const auto it = order_.find(msg.get());
-    if (it == order_.end()) return;
-    entries_.erase(it->second);
-    order_.erase(it);
+  // The filter delivered or dropped `msg`. True when that is news (a waiting message): a delivery
+  // to hand out, or a drop to count.
+  bool letGo(const Ptr& msg, bool delivered) {
+    const auto found = order_.find(msg.get());
+    if (found == order_.end()) return delivered;  // not seen arriving: can't happen
+    const auto it = entries_.find(found->second);
+    const bool news = it->second.state == State::kWaiting;
+    if (news && delivered) {
+      it->second.state = State::kReady;
+    } else if (it->second.state != State::kReady) {  // (a second word on a delivered one: ignored)
+      entries_.erase(it);
+      order_.erase(found);
+    }
+    return news;
   }
   std::size_t count(State state) const {
     std::size_t n = 0;
