@@ -78,7 +78,7 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   expire_timer_ = nh_.createWallTimer(ros::WallDuration(0.05), &MapperNode::expireWaitingScans, this);
   scan_filter_->registerCallback(boost::function<void(const sensor_msgs::LaserScan::ConstPtr&)>(
       [this](const sensor_msgs::LaserScan::ConstPtr& msg) {
-        if (!waiting_scans_.delivered(msg)) return;  // timed out and counted already
+        if (!waiting_scans_.delivered(msg)) return;  // timed out (and counted) or taken over already
         handleReadyScans();
         if (waiting_scans_.held() > 0) {  // this one: an earlier scan's transform is still missing
           std::lock_guard<std::mutex> lock(mutex_);

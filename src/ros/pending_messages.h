@@ -72,8 +72,9 @@ class PendingMessages {
   }
 
   // Messages waiting longer than `timeout` for which `still_possible` is false (their transform
-  // is still missing; one whose transform is there is takeReady's), each returned once. They stay recorded (holding the message, so its address can't be reused)
-  // until the filter lets go of them.
+  // is still missing; one whose transform is there is takeReady's), each returned once. They stay
+  // recorded (holding the message, so its address can't be reused) until the filter lets go of
+  // them.
   template <typename Pred>
   std::vector<Ptr> expire(const ros::WallTime& now, const ros::WallDuration& timeout, Pred still_possible) {
     std::vector<Ptr> expired;
