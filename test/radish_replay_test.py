@@ -83,7 +83,11 @@ def cases(bin_dir, work):
         launch_log = os.path.join(work, name + "_roslaunch.txt")
         port = free_port()  # a roscore of its own, whatever else runs on this machine
         env = dict(os.environ, ROS_MASTER_URI=f"http://localhost:{port}")
-        code = run(["roslaunch", "-p", str(port), "octo_slice_mapper", "replay.launch", "bag:=" + bag,
+        # Through the devel space's env.sh: ctest runs with the environment cached when cmake
+        # first ran, which on a fresh checkout lacks the devel Python path, and play_bag imports
+        # the generated SaveMap service from there.
+        devel_env = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(bin_dir))), "env.sh")
+        code = run([devel_env, "roslaunch", "-p", str(port), "octo_slice_mapper", "replay.launch", "bag:=" + bag,
                     "save:=" + name + "_ros", "optimize:=true", "warm_start:=true", "rate:=" + RATE,
                     "params_file:=" + params], launch_log, env)
         summary = [l for l in open(launch_log) if "session summary" in l]
