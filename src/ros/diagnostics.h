@@ -19,8 +19,8 @@ struct NodeCounters {
   std::uint64_t time_jumps_back = 0;
   // Delivered by the tf filter ahead of an earlier scan, and held until that one's turn.
   std::uint64_t scans_held_for_order = 0;
-  // Handed on by the node itself, their transform there but no word from the tf filter (which can
-  // miss a transform that arrives while it adds the message; see PendingMessages).
+  // Handed on by the node itself, their transform there but no word from the tf filter yet (which
+  // can miss a transform that arrives while it adds the message; see PendingMessages).
   std::uint64_t scans_taken_over = 0;
   double last_insert_ms = 0.0;
   // Longest a scan waited for the map (held by a service taking its snapshot), and longest a
