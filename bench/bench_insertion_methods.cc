@@ -99,11 +99,7 @@ class FlatGrid {
 };
 
 // The clamping the node's Mapper gives its octree, for the trees (d)-(g) build without a Mapper.
-void clampLikeTheMapper(octomap::OcTree* tree) {
-  const osm::MapperOptions defaults;
-  tree->setClampingThresMin(defaults.clamp_min);
-  tree->setClampingThresMax(defaults.clamp_max);
-}
+void clampLikeTheMapper(octomap::OcTree* tree) { osm::useMapperThresholds(osm::MapperOptions{}, tree); }
 
 // One scan's combined per-voxel updates, as (d) works them out, without applying them.
 std::vector<osm::KeyUpdate> scanUpdates(osm::ScanInserter* tracer, const osm::Scan& s) {

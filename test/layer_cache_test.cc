@@ -53,10 +53,7 @@ void insertByUpdateNode(ScanInserter* tracer, octomap::OcTree* tree, const Scan&
   }
 }
 
-void clampLikeTheMapper(octomap::OcTree* tree) {
-  tree->setClampingThresMin(0.12);
-  tree->setClampingThresMax(0.97);
-}
+void clampLikeTheMapper(octomap::OcTree* tree) { useMapperThresholds(MapperOptions{}, tree); }
 
 }  // namespace
 

@@ -32,6 +32,10 @@ struct MapperOptions {
   std::size_t max_unflushed_voxels = 20000;
 };
 
+// Gives `tree` the clamping bounds and occupancy threshold the mapper maps with (also for
+// benchmarks and tests that must build the mapper's octree another way).
+void useMapperThresholds(const MapperOptions& options, octomap::OcTree* tree);
+
 // What saving and the global pass need, taken quickly (under the caller's lock) so that the slow
 // work can run while mapping goes on. The octree is not copied but lent: it stays as it is until
 // Mapper::endSnapshot() (meanwhile every insertion goes into the insertion cache only).

@@ -6,6 +6,12 @@
 
 namespace octo_slice_mapper {
 
+void useMapperThresholds(const MapperOptions& options, octomap::OcTree* tree) {
+  tree->setClampingThresMin(options.clamp_min);
+  tree->setClampingThresMax(options.clamp_max);
+  tree->setOccupancyThres(0.5);
+}
+
 Mapper::Mapper(const MapperOptions& options) : options_(options), store_(options.scan_store) {
   if (!(options.resolution > 0.0)) throw std::invalid_argument("mapper: resolution must be > 0");
   if (!(0.0 < options.clamp_min && options.clamp_min < 0.5 && 0.5 < options.clamp_max && options.clamp_max < 1.0)) {
@@ -17,9 +23,7 @@ Mapper::Mapper(const MapperOptions& options) : options_(options), store_(options
 }
 
 void Mapper::adopt(std::unique_ptr<octomap::OcTree> tree) {
-  tree->setClampingThresMin(options_.clamp_min);
-  tree->setClampingThresMax(options_.clamp_max);
-  tree->setOccupancyThres(0.5);
+  useMapperThresholds(options_, tree.get());
   options_.resolution = tree->getResolution();
   // Build the new parts before swapping, so a bad option leaves the old map in place.
   auto inserter = std::make_unique<ScanInserter>(tree.get(), options_.insert);
