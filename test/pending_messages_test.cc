@@ -44,8 +44,8 @@ TEST(PendingMessages, InOrderDeliveryIsHandedOutAtOnce) {
   EXPECT_EQ(p.held(), 0u);
 }
 
-// The race the node met replaying Intel: scan 2's transform was there when it arrived, scan 1 was
-// still waiting for tf's thread to hand it on.
+// Scan 2 (and 3) could go at once; scan 1's transform is still missing (another frame, or tf late).
+// Handed on first, they would change the map: clamped updates depend on their order.
 TEST(PendingMessages, AnOvertakingMessageWaitsForTheEarlierOne) {
   Pending p;
   const ros::WallTime t(100.0);

@@ -2,8 +2,8 @@
 """A Radish log mapped in a real ROS session gives the offline tool's map, byte for byte.
 
 The first scans of each shared dataset go through carmen2bag and replay.launch (roscore, rosbag
-play with simulated time, tf, mapper_node saving on shutdown with the global pass), and through
-octo_slice_map straight from the log. Both must write the same .bt, .ot and .pgm, incremental and
+play with simulated time, tf, mapper_node saving with the global pass when the player asks), and
+through octo_slice_map straight from the log. Both must write the same .bt, .ot and .pgm, incremental and
 optimized: the node's adapters (LaserScan, tf, stamps, no-returns) lose and add nothing.
 
 It also asks the session summary for every scan inserted, none skipped and no time jump back: it
