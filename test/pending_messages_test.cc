@@ -18,6 +18,16 @@ Ptr message(std::uint32_t seq) {
   return m;
 }
 
+// Messages 1, 2, ... arriving in that order, at the given wall times.
+std::vector<Ptr> arriveAt(Pending* p, const std::vector<double>& seconds) {
+  std::vector<Ptr> msgs;
+  for (double t : seconds) {
+    msgs.push_back(message(static_cast<std::uint32_t>(msgs.size() + 1)));
+    p->arrived(msgs.back(), ros::WallTime(t));
+  }
+  return msgs;
+}
+
 std::vector<std::uint32_t> seqs(const std::vector<Ptr>& msgs) {
   std::vector<std::uint32_t> out;
   for (const Ptr& m : msgs) out.push_back(m->seq);
@@ -48,11 +58,8 @@ TEST(PendingMessages, InOrderDeliveryIsHandedOutAtOnce) {
 // Handed on first, they would change the map: clamped updates depend on their order.
 TEST(PendingMessages, AnOvertakingMessageWaitsForTheEarlierOne) {
   Pending p;
-  const ros::WallTime t(100.0);
-  const Ptr a = message(1), b = message(2), c = message(3);
-  p.arrived(a, t);
-  p.arrived(b, t);
-  p.arrived(c, t);
+  const std::vector<Ptr> m = arriveAt(&p, {100.0, 100.0, 100.0});
+  const Ptr &a = m[0], &b = m[1], &c = m[2];
   ASSERT_TRUE(p.delivered(b));
   ASSERT_TRUE(p.delivered(c));
   EXPECT_TRUE(p.takeReady(kNoTransform).empty());
@@ -65,11 +72,8 @@ TEST(PendingMessages, AnOvertakingMessageWaitsForTheEarlierOne) {
 
 TEST(PendingMessages, ADroppedMessageReleasesTheOnesBehindIt) {
   Pending p;
-  const ros::WallTime t(100.0);
-  const Ptr a = message(1), b = message(2), c = message(3);
-  p.arrived(a, t);
-  p.arrived(b, t);
-  p.arrived(c, t);
+  const std::vector<Ptr> m = arriveAt(&p, {100.0, 100.0, 100.0});
+  const Ptr &a = m[0], &b = m[1], &c = m[2];
   ASSERT_TRUE(p.delivered(c));
   EXPECT_TRUE(p.dropped(b));  // still to be counted
   EXPECT_TRUE(p.takeReady(kNoTransform).empty());  // a still waits
@@ -79,10 +83,8 @@ TEST(PendingMessages, ADroppedMessageReleasesTheOnesBehindIt) {
 
 TEST(PendingMessages, ATimedOutMessageHoldsNothingBackAndIsIgnoredLater) {
   Pending p;
-  const Ptr a = message(1), b = message(2), c = message(3);
-  p.arrived(a, ros::WallTime(100.0));
-  p.arrived(b, ros::WallTime(100.4));
-  p.arrived(c, ros::WallTime(100.4));
+  const std::vector<Ptr> m = arriveAt(&p, {100.0, 100.4, 100.4});
+  const Ptr &a = m[0], &b = m[1], &c = m[2];
   ASSERT_TRUE(p.delivered(b));
   EXPECT_TRUE(p.takeReady(kNoTransform).empty());
   // Only a has waited longer than the timeout; c has waited long enough but its transform is there.
@@ -109,11 +111,8 @@ TEST(PendingMessages, ATimedOutMessageDroppedLaterIsNotCountedTwice) {
 // message. The message is taken over once its transform is there, in its turn.
 TEST(PendingMessages, AWaitingMessageWhoseTransformIsThereIsTakenOver) {
   Pending p;
-  const ros::WallTime t(100.0);
-  const Ptr a = message(1), b = message(2), c = message(3);
-  p.arrived(a, t);
-  p.arrived(b, t);
-  p.arrived(c, t);
+  const std::vector<Ptr> m = arriveAt(&p, {100.0, 100.0, 100.0});
+  const Ptr &a = m[0], &b = m[1], &c = m[2];
   ASSERT_TRUE(p.delivered(b));
   std::size_t taken_over = 0;
   // a's transform is there, c's is not (and c holds nothing back: it is the last).
