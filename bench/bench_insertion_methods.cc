@@ -15,6 +15,11 @@
 //   (g) (d)'s tracing and model into a dense 2D float grid instead of the octree: the same
 //       per-scan combined updates, applied with updateNode's arithmetic to a flat array. d/g is
 //       what keeping the octree costs over a flat grid for the same sensor model.
+//   (h) the reverse of (g): octomap_server's model (a) through this project's insertion path: the
+//       same rays as computeRayKeys (a 2D walk with its arithmetic for level rays) and hit/miss, combined per scan in the dense evidence window
+//       (occupied wins, as (a)'s KeySets do), applied through the layer cache, flushed at the end.
+//       It must give (a)'s octree, leaf for leaf (checked). a/h and h/c are what the path alone
+//       gains over octomap_server's and costs over a flat grid, with the model taken out.
 // All get the same returns (readings below the range limit); (d)-(g) also clear along no-returns,
 // which (a)-(c) are not given. Each repetition maps all scans into a fresh map with each method in
 // turn; medians over repetitions.
@@ -28,12 +33,14 @@
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
 #include "bench_common.h"
 #include "octo_slice_mapper/carmen_log.h"
 #include "octo_slice_mapper/mapper.h"
+#include "octo_slice_mapper/scan_evidence.h"
 
 namespace osm = octo_slice_mapper;
 using Clock = std::chrono::steady_clock;
@@ -179,6 +186,100 @@ class FlatModelGrid {
   std::size_t outside_ = 0;
 };
 
+// (h) octomap_server's rays and hit/miss through our path: per-scan evidence window, layer cache.
+class ServerModelThroughOurPath {
+ public:
+  explicit ServerModelThroughOurPath(octomap::OcTree* tree)
+      : tree_(tree), cache_(tree), hit_(tree->getProbHitLog()), miss_(tree->getProbMissLog()) {}
+
+  void insert(const CloudScan& scan) {
+    const auto t0 = Clock::now();
+    ++scans_;
+    octomap::OcTreeKey origin, end;
+    if (!tree_->coordToKeyChecked(scan.origin, origin)) return;
+    osm::KeyBox box;
+    box.add(origin);
+    std::size_t max_adds = 0;  // the walk steps one key along one axis at a time
+    for (const octomap::point3d& p : scan.points) {
+      if (!tree_->coordToKeyChecked(p, end)) continue;
+      box.add(end);
+      for (int i = 0; i < 3; ++i) max_adds += std::abs(int(end[i]) - int(origin[i]));
+      max_adds += 3;  // the origin, the end, and a step past the end that rounding may take
+    }
+    for (int i = 0; i < 2; ++i) --box.min[i], ++box.max[i];  // that step may leave the box by one
+    if (!evidence_.begin(box, max_adds)) std::abort();  // the logs' scans are far below the limit
+    for (const octomap::point3d& p : scan.points) {
+      if (!tree_->coordToKeyChecked(p, end)) continue;
+      if (p.z() == scan.origin.z()) {
+        levelRay(scan.origin, p, origin, end);
+      } else if (tree_->computeRayKeys(scan.origin, p, ray_)) {
+        for (const octomap::OcTreeKey& k : ray_) evidence_.add(k, miss_);
+      }
+      evidence_.add(end, hit_);
+    }
+    const auto t1 = Clock::now();
+    walking_ += t1 - t0;
+    if (box.min[2] == box.max[2]) {  // level: one cached layer, as ScanInserter does
+      osm::LayerCache::Layer& layer = cache_.layer(box.min[2]);
+      cache_.cover(&layer, box.min[0], box.min[1], box.max[0], box.max[1]);
+      evidence_.drain([&](const octomap::OcTreeKey& k, float l) { cache_.apply(layer, k[0], k[1], l); });
+    } else {
+      evidence_.drain([&](const octomap::OcTreeKey& k, float l) { cache_.apply(k, l); });
+    }
+    applying_ += Clock::now() - t1;
+  }
+  // Brings the octree up to date and reports where the time went (stderr).
+  void flush() {
+    const auto t0 = Clock::now();
+    cache_.flush();
+    const auto ms = [&](Clock::duration d) { return std::chrono::duration<double, std::milli>(d).count() / scans_; };
+    std::fprintf(stderr, "  (h): walking and recording %.3f ms/scan, applying %.3f ms/scan, final flush %.3f ms/scan\n",
+                 ms(walking_), ms(applying_), ms(Clock::now() - t0));
+  }
+
+ private:
+  // The free keys computeRayKeys gives for a ray within one z layer, by the same voxel walk
+  // (Amanatides & Woo) with the same float/double arithmetic, in 2D: the z step never comes.
+  void levelRay(const octomap::point3d& from, const octomap::point3d& to, const octomap::OcTreeKey& start,
+                const octomap::OcTreeKey& end) {
+    if (start == end) return;
+    evidence_.add(start, miss_);
+    octomap::point3d dir = to - from;
+    const float length = static_cast<float>(dir.norm());
+    dir /= length;
+    int step[2];
+    double t_max[2], t_delta[2];
+    unsigned key[2] = {start[0], start[1]};
+    for (int i = 0; i < 2; ++i) {
+      step[i] = dir(i) > 0.0 ? 1 : dir(i) < 0.0 ? -1 : 0;
+      if (step[i] == 0) {
+        t_max[i] = t_delta[i] = std::numeric_limits<double>::max();
+        continue;
+      }
+      double border = tree_->keyToCoord(key[i]);
+      border += static_cast<float>(step[i] * tree_->getResolution() * 0.5);
+      t_max[i] = (border - from(i)) / dir(i);
+      t_delta[i] = tree_->getResolution() / std::fabs(dir(i));
+    }
+    while (true) {
+      const int axis = t_max[0] < t_max[1] ? 0 : 1;
+      key[axis] += step[axis];
+      t_max[axis] += t_delta[axis];
+      if (key[0] == end[0] && key[1] == end[1]) return;
+      if (std::min(t_max[0], t_max[1]) > length) return;  // rounding walked past the end voxel
+      evidence_.add(octomap::OcTreeKey(key[0], key[1], start[2]), miss_);
+    }
+  }
+
+  octomap::OcTree* tree_;
+  osm::LayerCache cache_;
+  osm::ScanEvidence evidence_;
+  octomap::KeyRay ray_;
+  float hit_, miss_;
+  Clock::duration walking_{}, applying_{};
+  std::size_t scans_ = 0;
+};
+
 double msPerScan(std::size_t scans, const std::function<void()>& run) {
   const auto t0 = Clock::now();
   run();
@@ -207,9 +308,9 @@ int main(int argc, char** argv) {
   const std::vector<std::pair<std::string, std::string>> datasets = {
       {"intel", data + "/intel_corrected/intel-corrected.log.gz"},
       {"fr079", data + "/fr079_corrected/freiburg-079-corrected.log.gz"}};
-  std::printf("%-6s %5s | %9s %9s %9s %9s %9s %9s %9s %9s | %7s %7s %7s %7s %7s %7s\n", "data", "res",
-              "(a) srv", "(b) cloud", "(c) flat", "(d) ours", "(d+) node", "(e) floor", "(f) apply", "(g) flat+",
-              "a/d", "d/c", "b/d", "e/c", "f/c", "d/g");
+  std::printf("%-6s %5s | %9s %9s %9s %9s %9s %9s %9s %9s %9s | %7s %7s %7s %7s %7s %7s %7s %7s\n", "data",
+              "res", "(a) srv", "(b) cloud", "(c) flat", "(d) ours", "(d+) node", "(e) floor", "(f) apply",
+              "(g) flat+", "(h) srv+", "a/d", "d/c", "b/d", "e/c", "f/c", "d/g", "a/h", "h/c");
   for (const auto& [name, path] : datasets) {
     if (!only.empty() && only != name) continue;
     std::string error;
@@ -228,7 +329,7 @@ int main(int argc, char** argv) {
       }
     }
     for (double res : resolutions) {
-      std::vector<double> a, b, c, d, dplus, e, f, g;
+      std::vector<double> a, b, c, d, dplus, e, f, g, h;
       for (int r = 0; r < repeats; ++r) {
         {
           octomap::OcTree tree(res);
@@ -237,6 +338,19 @@ int main(int argc, char** argv) {
           a.push_back(msPerScan(scans.size(), [&] {
             for (const CloudScan& p : points) insertLikeOctomapServer(&tree, p);
           }));
+          octomap::OcTree ours(res);
+          ours.setProbHit(0.7);
+          ours.setProbMiss(0.4);
+          ServerModelThroughOurPath path(&ours);
+          h.push_back(msPerScan(scans.size(), [&] {
+            for (const CloudScan& p : points) path.insert(p);
+            path.flush();
+          }));
+          if (!sameLeaves(ours, tree)) {
+            std::fprintf(stderr, "bench_insertion_methods: (h) did not give (a)'s map (%zu leaves, (a) has %zu)\n",
+                         ours.getNumLeafNodes(), tree.getNumLeafNodes());
+            return 1;
+          }
         }
         {
           octomap::OcTree tree(res);
@@ -312,21 +426,25 @@ int main(int argc, char** argv) {
             mapper.tree();  // flushes the insertion cache into the octree
           }));
         }
-        std::fprintf(stderr, "  %s %.2f repeat %d/%d: a %.3f b %.3f c %.3f d %.3f d+ %.3f e %.3f f %.3f g %.3f ms\n",
+        std::fprintf(stderr,
+                     "  %s %.2f repeat %d/%d: a %.3f b %.3f c %.3f d %.3f d+ %.3f e %.3f f %.3f g %.3f h %.3f ms\n",
                      name.c_str(), res, r + 1, repeats, a.back(), b.back(), c.back(), d.back(), dplus.back(), e.back(),
-                     f.back(), g.back());
+                     f.back(), g.back(), h.back());
       }
       const double ma = median(a), mb = median(b), mc = median(c), md = median(d), mdp = median(dplus), me = median(e),
-                   mf = median(f), mg = median(g);
+                   mf = median(f), mg = median(g), mh = median(h);
       std::printf(
-          "%-6s %5.2f | %9.3f %9.3f %9.3f %9.3f %9.3f %9.3f %9.3f %9.3f | %6.1fx %6.2fx %6.1fx %6.2fx %6.2fx %6.2fx\n",
-          name.c_str(), res, ma, mb, mc, md, mdp, me, mf, mg, ma / md, md / mc, mb / md, me / mc, mf / mc, md / mg);
+          "%-6s %5.2f | %9.3f %9.3f %9.3f %9.3f %9.3f %9.3f %9.3f %9.3f %9.3f | %6.1fx %6.2fx %6.1fx %6.2fx %6.2fx "
+          "%6.2fx %6.1fx %6.2fx\n",
+          name.c_str(), res, ma, mb, mc, md, mdp, me, mf, mg, mh, ma / md, md / mc, mb / md, me / mc, mf / mc, md / mg,
+          ma / mh, mh / mc);
     }
   }
   std::printf("ms per scan, medians of %d; a/d: ours vs octomap_server (target >= 20x at 0.05 m); d/c: ours vs a "
               "flat grid (target <= 2x); e/c: building the final octree alone vs the whole flat-grid job; f/c: "
               "applying (d)'s updates and flushing, without finding them, vs the flat grid; d/g: ours vs the same "
-              "tracing and model into a flat grid\n",
+              "tracing and model into a flat grid; a/h, h/c: octomap_server's model through our insertion path vs (a) and "
+              "(c)\n",
               repeats);
   return 0;
 }
