@@ -16,12 +16,13 @@
 //       per-scan combined updates, applied with updateNode's arithmetic to a flat array. d/g is
 //       what keeping the octree costs over a flat grid for the same sensor model.
 //   (h) the reverse of (g): octomap_server's model (a) through this project's insertion path: the
-//       same rays as computeRayKeys (a 2D walk with its arithmetic for level rays) and hit/miss, combined per scan in the dense evidence window
-//       (occupied wins, as (a)'s KeySets do), applied through the layer cache, flushed at the end.
-//       It must give (a)'s octree, leaf for leaf (checked). a/h and h/c are what the path alone
-//       gains over octomap_server's and costs over a flat grid, with the model taken out.
+//       rays of computeRayKeys (for level rays, the same walk with the same arithmetic in 2D) and
+//       hit/miss, combined per scan in the dense evidence window (occupied wins, as (a)'s KeySets
+//       do), applied through the layer cache, flushed at the end. It must give (a)'s octree, leaf
+//       for leaf (checked). a/h and h/c: what our path gains over octomap_server's, and costs over
+//       a flat grid, with octomap_server's model instead of ours.
 // All get the same returns (readings below the range limit); (d)-(g) also clear along no-returns,
-// which (a)-(c) are not given. Each repetition maps all scans into a fresh map with each method in
+// which (a)-(c) and (h) are not given. Each repetition maps all scans into a fresh map with each method in
 // turn; medians over repetitions.
 //
 //   bench_insertion_methods [--data DIR] [--repeats N] [--resolution M]... [--only intel|fr079]
@@ -207,7 +208,10 @@ class ServerModelThroughOurPath {
       max_adds += 3;  // the origin, the end, and a step past the end that rounding may take
     }
     for (int i = 0; i < 2; ++i) --box.min[i], ++box.max[i];  // that step may leave the box by one
-    if (!evidence_.begin(box, max_adds)) std::abort();  // the logs' scans are far below the limit
+    if (!evidence_.begin(box, max_adds)) {  // the logs' scans are far below the window's limit
+      std::fprintf(stderr, "bench_insertion_methods: (h) a scan's box is too large for the evidence window\n");
+      std::exit(1);
+    }
     for (const octomap::point3d& p : scan.points) {
       if (!tree_->coordToKeyChecked(p, end)) continue;
       if (p.z() == scan.origin.z()) {
@@ -443,8 +447,8 @@ int main(int argc, char** argv) {
   std::printf("ms per scan, medians of %d; a/d: ours vs octomap_server (target >= 20x at 0.05 m); d/c: ours vs a "
               "flat grid (target <= 2x); e/c: building the final octree alone vs the whole flat-grid job; f/c: "
               "applying (d)'s updates and flushing, without finding them, vs the flat grid; d/g: ours vs the same "
-              "tracing and model into a flat grid; a/h, h/c: octomap_server's model through our insertion path vs (a) and "
-              "(c)\n",
+              "tracing and model into a flat grid; a/h, h/c: octomap_server's model through our insertion path vs "
+              "(a) and (c)\n",
               repeats);
   return 0;
 }
