@@ -22,8 +22,8 @@
 //       for leaf (checked). a/h and h/c: what our path gains over octomap_server's, and costs over
 //       a flat grid, with octomap_server's model instead of ours.
 // All get the same returns (readings below the range limit); (d)-(g) also clear along no-returns,
-// which (a)-(c) and (h) are not given. Each repetition maps all scans into a fresh map with each method in
-// turn; medians over repetitions.
+// which (a)-(c) and (h) are not given. Each repetition maps all scans into a fresh map with each
+// method in turn; medians over repetitions.
 //
 //   bench_insertion_methods [--data DIR] [--repeats N] [--resolution M]... [--only intel|fr079]
 #include <octomap/OcTree.h>
@@ -115,6 +115,19 @@ std::vector<osm::KeyUpdate> scanUpdates(osm::ScanInserter* tracer, const osm::Sc
                                 tracer->model().halfAngleFor(s.angle_increment));
 }
 
+// One scan's combined updates, which `for_each(fn)` hands to fn(key, log_odds), through `cache`
+// as ScanInserter applies them: a level scan (`box` one layer thick) into its cached layer.
+template <typename ForEach>
+void applyThroughCache(osm::LayerCache* cache, const osm::KeyBox& box, ForEach for_each) {
+  if (box.min[2] == box.max[2]) {
+    osm::LayerCache::Layer& layer = cache->layer(box.min[2]);
+    cache->cover(&layer, box.min[0], box.min[1], box.max[0], box.max[1]);
+    for_each([&](const octomap::OcTreeKey& k, float l) { cache->apply(layer, k[0], k[1], l); });
+  } else {
+    for_each([&](const octomap::OcTreeKey& k, float l) { cache->apply(k, l); });
+  }
+}
+
 // (f): each scan's combined updates from ScanInserter (not timed), then only their application
 // through a LayerCache and the final flush (timed). ms per scan.
 double applyOnly(const std::vector<osm::Scan>& scans, octomap::OcTree* tree) {
@@ -127,13 +140,9 @@ double applyOnly(const std::vector<osm::Scan>& scans, octomap::OcTree* tree) {
     osm::KeyBox box;
     for (const osm::KeyUpdate& u : updates) box.add(u.key);
     const auto t0 = Clock::now();
-    if (box.min[2] == box.max[2]) {  // a level scan: one layer, as ScanInserter applies it
-      osm::LayerCache::Layer& layer = cache.layer(box.min[2]);
-      cache.cover(&layer, box.min[0], box.min[1], box.max[0], box.max[1]);
-      for (const osm::KeyUpdate& u : updates) cache.apply(layer, u.key[0], u.key[1], u.log_odds);
-    } else {
-      for (const osm::KeyUpdate& u : updates) cache.apply(u.key, u.log_odds);
-    }
+    applyThroughCache(&cache, box, [&](auto&& fn) {
+      for (const osm::KeyUpdate& u : updates) fn(u.key, u.log_odds);
+    });
     timed += Clock::now() - t0;
   }
   const auto t0 = Clock::now();
@@ -223,13 +232,7 @@ class ServerModelThroughOurPath {
     }
     const auto t1 = Clock::now();
     walking_ += t1 - t0;
-    if (box.min[2] == box.max[2]) {  // level: one cached layer, as ScanInserter does
-      osm::LayerCache::Layer& layer = cache_.layer(box.min[2]);
-      cache_.cover(&layer, box.min[0], box.min[1], box.max[0], box.max[1]);
-      evidence_.drain([&](const octomap::OcTreeKey& k, float l) { cache_.apply(layer, k[0], k[1], l); });
-    } else {
-      evidence_.drain([&](const octomap::OcTreeKey& k, float l) { cache_.apply(k, l); });
-    }
+    applyThroughCache(&cache_, box, [&](auto&& fn) { evidence_.drain(fn); });
     applying_ += Clock::now() - t1;
   }
   // Brings the octree up to date and reports where the time went (stderr).
