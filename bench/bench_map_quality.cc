@@ -1,0 +1,113 @@
+// bench_map_quality: how well each map predicts scans it never saw (issue 18), on the shared CARMEN
+// datasets. Every 10th scan from index 5 is held out; the rest build
+//   - ours, incremental: the slice the node publishes on /map and saves as .pgm;
+//   - ours, optimized: the global pass over the kept scans (start as configured: the default,
+//     and the other start for comparison);
+//   - octomap_server's method and a dense hit/miss grid (bench/peer_maps.h).
+// Each map is judged as exported: the map_server reading of its .pgm (trinaryOf), every held-out
+// return cast through it to the first occupied cell (scoreHeldOut, the same rules as
+// shared/tools/map_judge). With --out DIR the maps are also written as DIR/<data>_<map>.{pgm,yaml},
+// so that the shared judge can check the figures.
+//
+//   bench_map_quality [--data DIR] [--only intel|fr079] [--out DIR] [--every N]
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include "octo_slice_mapper/carmen_log.h"
+#include "octo_slice_mapper/held_out_score.h"
+#include "octo_slice_mapper/mapper.h"
+#include "peer_maps.h"
+
+namespace osm = octo_slice_mapper;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+struct Dataset {
+  std::string name, file;
+};
+
+bool readLog(const std::string& path, std::vector<osm::Scan>* scans) {
+  osm::CarmenLogReader reader;
+  std::string error;
+  if (!reader.open(path, &error)) {
+    std::fprintf(stderr, "bench_map_quality: %s\n", error.c_str());
+    return false;
+  }
+  osm::LogScan record;
+  while (reader.next(&record)) scans->push_back(record.scan);
+  return true;
+}
+
+struct Row {
+  std::string map;
+  osm::HeldOutScore score;
+  double seconds;
+};
+
+void report(const std::string& data, const Row& r) {
+  const osm::HeldOutScore& s = r.score;
+  std::printf("| %s | %s | %.4f | %.4f | %.3f | %.3f | %.3f | %.3f | %.1f |\n", data.c_str(), r.map.c_str(),
+              s.within_10cm, s.within_25cm, s.mean_abs_error, s.too_short, s.too_long, s.unknown_first, r.seconds);
+  std::fflush(stdout);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string data_dir = std::getenv("OSM_DATA_DIR") ? std::getenv("OSM_DATA_DIR") : "../shared/data";
+  std::string only, out_dir;
+  osm::HoldOut hold{10, 5};
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string a = argv[i];
+    if (a == "--data") data_dir = argv[i + 1];
+    else if (a == "--only") only = argv[i + 1];
+    else if (a == "--out") out_dir = argv[i + 1];
+    else if (a == "--every") hold.every = std::atoi(argv[i + 1]);
+    else {
+      std::fprintf(stderr, "usage: bench_map_quality [--data DIR] [--only intel|fr079] [--out DIR] [--every N]\n");
+      return 2;
+    }
+  }
+  const std::vector<Dataset> datasets = {{"intel", data_dir + "/intel_corrected/intel-corrected.log.gz"},
+                                         {"fr079", data_dir + "/fr079_corrected/freiburg-079-corrected.log.gz"}};
+  std::printf("| data | map | within 0.10 m | within 0.25 m | mean abs err (m) | too short | too long | unknown first | s |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|\n");
+  for (const Dataset& d : datasets) {
+    if (!only.empty() && only != d.name) continue;
+    std::vector<osm::Scan> all, train, held;
+    if (!readLog(d.file, &all)) return 1;
+    for (std::size_t k = 0; k < all.size(); ++k) (hold.holds(k) ? held : train).push_back(all[k]);
+    const osm::MapperOptions options;
+    auto judge = [&](const std::string& map, const osm::GridImage& grid, Clock::time_point t0) {
+      const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+      const osm::GridImage trinary = osm::trinaryOf(grid);
+      report(d.name, {map, osm::scoreHeldOut(trinary, held), seconds});
+      std::string error;
+      if (!out_dir.empty() && !osm::savePgmYaml(grid, out_dir + "/" + d.name + "_" + map, &error)) {
+        std::fprintf(stderr, "bench_map_quality: %s\n", error.c_str());
+      }
+    };
+    auto t0 = Clock::now();
+    osm::Mapper mapper(options);
+    for (const osm::Scan& s : train) mapper.insert(s);
+    const osm::GridImage incremental = osm::gridImageOf(mapper.slice());
+    judge("incremental", incremental, t0);
+    for (bool warm : {true, false}) {
+      t0 = Clock::now();
+      const osm::OptimizedMap optimized = mapper.optimize(warm);
+      judge(warm ? "optimized_warm" : "optimized_cold", osm::inFrameOf(optimized.grid, incremental), t0);
+    }
+    t0 = Clock::now();
+    judge("octomap_server", osm::bench::octomapServerMap(train, options.resolution, options.slice.min_z,
+                                                          options.slice.max_z), t0);
+    t0 = Clock::now();
+    judge("hit_miss_grid", osm::bench::hitMissGrid(train, options.resolution, false), t0);
+    t0 = Clock::now();
+    judge("hit_miss_grid_ml", osm::bench::hitMissGrid(train, options.resolution, true), t0);
+  }
+  return 0;
+}
