@@ -1,15 +1,12 @@
 // bench_global_optimizer: the global pass (Task 2) on the shared CARMEN datasets at 0.05 m.
 //
-//   bench_global_optimizer [--data DIR] [--repeats N] [--holdout-every N] [--only intel|fr079]
+//   bench_global_optimizer [--data DIR] [--repeats N] [--only intel|fr079]
 //
-// For each dataset, in one process:
-//  1. speed: all scans into a Mapper, then the global pass from all-free (the lab's start) and
-//     warm from the incremental map, each `repeats` times: median seconds (index + sweeps),
-//     sweeps, flips, and the process's peak resident memory during the pass (VmHWM, reset before
-//     each run through /proc/self/clear_refs; it includes the loaded log and the octree);
-//  2. quality on scans the maps never saw: maps from all scans but every Nth, then each held-out
-//     return is cast through the incremental, the optimized (from empty) and the optimized (warm)
-//     map; mean / median absolute error and the share within 0.10 m.
+// For each dataset, in one process: all scans into a Mapper, then the global pass from all-free
+// (the lab's start) and warm from the incremental map, each `repeats` times: median seconds
+// (index + sweeps), sweeps, flips, and the process's peak resident memory during the pass
+// (VmHWM, reset before each run through /proc/self/clear_refs; it includes the loaded log and
+// the octree). Map quality on held-out scans: bench_map_quality.
 // Targets (issue 3): Intel <= 10 s, Freiburg 079 <= 60 s, peak memory <= 1 GB.
 #include <algorithm>
 #include <cstdio>
@@ -76,25 +73,19 @@ Timing timeGlobalPass(const osm::Mapper& mapper, bool warm_start, int repeats) {
   return t;
 }
 
-void printErrors(const char* name, const osm::RangePredictionError& e) {
-  std::printf("  %-28s %8zu %10.3f %10.3f %10.3f %10zu\n", name, e.beams, e.mean_abs_error, e.median_abs_error,
-              e.within_10cm, e.nothing_hit);
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
   const char* env = std::getenv("OSM_DATA_DIR");
   std::string data = env && *env ? env : "../shared/data", only;
-  int repeats = 3, holdout_every = 10;
+  int repeats = 3;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "--data" && i + 1 < argc) data = argv[++i];
     else if (arg == "--repeats" && i + 1 < argc) repeats = std::max(1, std::atoi(argv[++i]));
-    else if (arg == "--holdout-every" && i + 1 < argc) holdout_every = std::max(2, std::atoi(argv[++i]));
     else if (arg == "--only" && i + 1 < argc) only = argv[++i];
     else {
-      std::fprintf(stderr, "usage: bench_global_optimizer [--data DIR] [--repeats N] [--holdout-every N] [--only NAME]\n");
+      std::fprintf(stderr, "usage: bench_global_optimizer [--data DIR] [--repeats N] [--only NAME]\n");
       return 2;
     }
   }
@@ -111,13 +102,8 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "bench_global_optimizer: %s\n", error.empty() ? "no scans" : error.c_str());
       return 1;
     }
-    osm::Mapper all, train;
-    std::vector<osm::Scan> held_out;
-    for (std::size_t k = 0; k < log.size(); ++k) {
-      all.insert(log[k].scan);
-      if (k % holdout_every == std::size_t(holdout_every) - 1) held_out.push_back(log[k].scan);
-      else train.insert(log[k].scan);
-    }
+    osm::Mapper all;
+    for (const osm::LogScan& record : log) all.insert(record.scan);
     std::printf("== %s: %zu scans x %zu beams, 0.05 m, %d repeats (median)\n", d.name.c_str(), log.size(),
                 log.front().scan.ranges.size(), repeats);
     std::printf("  %-28s %8s %7s %8s %9s %9s %10s\n", "global pass, all scans", "seconds", "sweeps", "flips",
@@ -134,13 +120,6 @@ int main(int argc, char** argv) {
     std::printf("  (%zu observed cells, %zu beams; scan store %.1f MB)\n", t.cells, t.beams,
                 all.scanStore().memoryBytes() / 1e6);
 
-    const osm::GridImage incremental = osm::gridImageOf(train.slice());
-    const osm::GridImage cold = train.optimize(false).grid, warm = train.optimize(true).grid;
-    std::printf("  held out every %dth scan    %8s %10s %10s %10s %10s\n", holdout_every, "beams", "mean m",
-                "median m", "<=0.10 m", "no hit");
-    printErrors("incremental (inverse model)", osm::predictRanges(incremental, held_out));
-    printErrors("optimized from empty", osm::predictRanges(cold, held_out));
-    printErrors("optimized warm", osm::predictRanges(warm, held_out));
   }
   if (!rss_resettable) std::printf("note: /proc/self/clear_refs not writable: peak MB is the process's peak so far\n");
   std::printf("targets %s\n", all_met ? "met" : "MISSED");

@@ -9,7 +9,7 @@
 // shared/tools/map_judge). With --out DIR the maps are also written as DIR/<data>_<map>.{pgm,yaml},
 // so that the shared judge can check the figures.
 //
-//   bench_map_quality [--data DIR] [--only intel|fr079] [--out DIR] [--every N]
+//   bench_map_quality [--data DIR] [--only intel|fr079] [--out DIR] [--every N] [--incremental-only]
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -60,15 +60,19 @@ void report(const std::string& data, const Row& r) {
 int main(int argc, char** argv) {
   std::string data_dir = std::getenv("OSM_DATA_DIR") ? std::getenv("OSM_DATA_DIR") : "../shared/data";
   std::string only, out_dir;
+  bool incremental_only = false;
   osm::HoldOut hold{10, 5};
-  for (int i = 1; i + 1 < argc; i += 2) {
+  for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--data") data_dir = argv[i + 1];
-    else if (a == "--only") only = argv[i + 1];
-    else if (a == "--out") out_dir = argv[i + 1];
-    else if (a == "--every") hold.every = std::atoi(argv[i + 1]);
+    const bool has_value = i + 1 < argc;
+    if (a == "--incremental-only") incremental_only = true;
+    else if (a == "--data" && has_value) data_dir = argv[++i];
+    else if (a == "--only" && has_value) only = argv[++i];
+    else if (a == "--out" && has_value) out_dir = argv[++i];
+    else if (a == "--every" && has_value) hold.every = std::atoi(argv[++i]);
     else {
-      std::fprintf(stderr, "usage: bench_map_quality [--data DIR] [--only intel|fr079] [--out DIR] [--every N]\n");
+      std::fprintf(stderr, "usage: bench_map_quality [--data DIR] [--only intel|fr079] [--out DIR] [--every N] "
+                           "[--incremental-only]\n");
       return 2;
     }
   }
@@ -80,6 +84,7 @@ int main(int argc, char** argv) {
     if (!only.empty() && only != d.name) continue;
     std::vector<osm::Scan> all, train, held;
     if (!readLog(d.file, &all)) return 1;
+    if (!out_dir.empty()) std::system(("mkdir -p '" + out_dir + "'").c_str());
     for (std::size_t k = 0; k < all.size(); ++k) (hold.holds(k) ? held : train).push_back(all[k]);
     const osm::MapperOptions options;
     auto judge = [&](const std::string& map, const osm::GridImage& grid, Clock::time_point t0) {
@@ -96,6 +101,7 @@ int main(int argc, char** argv) {
     for (const osm::Scan& s : train) mapper.insert(s);
     const osm::GridImage incremental = osm::gridImageOf(mapper.slice());
     judge("incremental", incremental, t0);
+    if (incremental_only) continue;
     for (bool warm : {true, false}) {
       t0 = Clock::now();
       const osm::OptimizedMap optimized = mapper.optimize(warm);

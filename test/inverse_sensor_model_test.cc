@@ -74,12 +74,40 @@ TEST(InverseSensorModel, AcrossTheCone) {
   EXPECT_GT(model.sigmaAt(r, 0.8 * kHalf, kHalf), model.sigmaAt(r, 0.0, kHalf));
 }
 
-TEST(InverseSensorModel, ConeIsNeverNarrowerThanTheScanStep) {
+TEST(InverseSensorModel, ConeIsTheBeamsOwnUnlessAskedToCoverTheScanStep) {
   InverseSensorModelOptions o;
   o.beam_opening_angle = 0.001;
+  EXPECT_NEAR(InverseSensorModel(o).halfAngleFor(0.0175), 0.0005, 1e-12);
+  o.cone_covers_angle_step = true;
   InverseSensorModel model(o);
   EXPECT_NEAR(model.halfAngleFor(0.0175), 0.5 * 0.0175, 1e-12);  // 1 deg scans tile the plane
   EXPECT_NEAR(model.halfAngleFor(0.0001), 0.0005, 1e-12);
+}
+
+// For voxels, the occupied part of an update is the share of the peak's mass inside the voxel:
+// the voxels along the axis hold one peak's worth between them wherever the return falls in its
+// voxel, and the voxel in front of a return that lies mid-voxel gets net free evidence (a peak
+// value per voxel marked it occupied too, and walls grew towards the sensor).
+TEST(InverseSensorModel, VoxelsAlongTheAxisShareOnePeak) {
+  const double voxel = 0.05, r = 2.0;
+  const InverseSensorModel model({}, voxel);
+  for (double offset = -0.5; offset < 0.5; offset += 0.1) {
+    double occupied = 0.0;
+    for (int i = -10; i <= 10; ++i) {
+      const double centre = r + (i + offset) * voxel;
+      occupied += model.hitUpdate(r, centre, 0.0, kHalf) - model.noReturnUpdate(r, centre, 0.0, kHalf);
+    }
+    // B fades the far flank (u > 1) by the voxel's centre: the voxel behind the return loses its part.
+    EXPECT_GT(occupied, 0.6 * model.logOddsOccupied()) << offset;
+    EXPECT_LT(occupied, 1.0 * model.logOddsOccupied() + 1e-6) << offset;
+  }
+  EXPECT_GT(model.hitUpdate(r, r, 0.0, kHalf), 0.8f * model.logOddsOccupied());
+  EXPECT_LT(model.hitUpdate(r, r - voxel, 0.0, kHalf), 0.0f);
+  // The voxel behind the return gets nothing once it is 2 sigma behind.
+  EXPECT_EQ(model.hitUpdate(r, r + voxel, 0.0, kHalf), 0.0f);
+  // Off the axis a voxel holds only its share: a smaller occupied part, the same free part.
+  EXPECT_NEAR(model.hitUpdate(r, r - 0.3, 0.0, kHalf, 0.25), model.logOddsFree(), 1e-3);
+  EXPECT_LT(model.hitUpdate(r, r, 0.0, kHalf, 0.25), 0.5f * model.hitUpdate(r, r, 0.0, kHalf));
 }
 
 TEST(InverseSensorModel, NoReturnClearsButNeverMarksOccupied) {
@@ -117,18 +145,23 @@ TEST(InverseSensorModel, RejectsInconsistentOptions) {
   EXPECT_THROW(InverseSensorModel{o}, std::invalid_argument);
 }
 
-// hitUpdate interpolates a table of the axis profile: it stays within 5e-5 of the formula over
-// the whole transition (a coarser table or an off-by-one index would not).
+// hitUpdate interpolates tables of the axis profile: it stays within 1e-4 of the formula over
+// the whole transition, for points and for voxels (a coarser table or an off-by-one index would
+// not).
 TEST(InverseSensorModel, TabulatedProfileMatchesTheFormula) {
-  const InverseSensorModel model;
-  const double r = 3.0, sigma = model.sigmaAt(r, 0.0, kHalf);
-  double worst = 0.0;
-  for (double u = -8.0; u < 2.0; u += 0.0013) {
-    const double exact = model.hitProfileExact(u);
-    worst = std::max(worst, std::abs(model.hitUpdate(r, r + u * sigma, 0.0, kHalf) - exact));
+  for (double voxel : {0.0, 0.05, 0.02}) {
+    const InverseSensorModel model({}, voxel);
+    for (double r : {0.5, 3.0, 12.0}) {
+      const double sigma = model.sigmaAt(r, 0.0, kHalf), k = 0.5 * voxel / sigma;
+      double worst = 0.0;
+      for (double u = -8.0; u < 2.0; u += 0.0013) {
+        const double exact = model.hitProfileExact(u, k);
+        worst = std::max(worst, std::abs(model.hitUpdate(r, r + u * sigma, 0.0, kHalf) - exact));
+      }
+      EXPECT_LT(worst, 1e-4) << voxel << " " << r;
+    }
   }
-  EXPECT_LT(worst, 5e-5);
-  EXPECT_NEAR(model.hitProfileExact(0.0), model.logOddsOccupied(), 0.05);
+  EXPECT_NEAR(InverseSensorModel().hitProfileExact(0.0, 0.0), InverseSensorModel().logOddsOccupied(), 0.05);
 }
 
 // The tracer evaluates the model from q = tan(off-axis angle) / tan(half-angle) with the cone

@@ -35,22 +35,35 @@ void expectSameTree(const octomap::OcTree& a, const octomap::OcTree& b) {
   }
 }
 
-// The reference: updateNode once per voxel per scan with the combined evidence (the strongest
-// occupied evidence, else the strongest free evidence).
+// The reference: updateNode once per voxel per scan with the combined evidence (the sum of the
+// beams' evidence, in the order they give it; or the strongest occupied evidence, else the
+// strongest free evidence).
 void insertByUpdateNode(ScanInserter* tracer, octomap::OcTree* tree, const Scan& scan) {
-  std::map<octomap::OcTreeKey, std::pair<float, float>, bool (*)(const octomap::OcTreeKey&, const octomap::OcTreeKey&)>
-      evidence([](const octomap::OcTreeKey& a, const octomap::OcTreeKey& b) {
+  struct Evidence {
+    float sum = 0.0f, most_occupied = 0.0f, most_free = 0.0f;
+  };
+  std::map<octomap::OcTreeKey, Evidence, bool (*)(const octomap::OcTreeKey&, const octomap::OcTreeKey&)> evidence(
+      [](const octomap::OcTreeKey& a, const octomap::OcTreeKey& b) {
         return std::make_tuple(a[0], a[1], a[2]) < std::make_tuple(b[0], b[1], b[2]);
       });
   tracer->traceEvidence(scan, [&](const octomap::OcTreeKey& key, float value) {
-    auto& e = evidence.emplace(key, std::make_pair(0.0f, 0.0f)).first->second;
-    e.first = std::max(e.first, value);
-    e.second = std::min(e.second, value);
+    Evidence& e = evidence[key];
+    e.sum += value;
+    e.most_occupied = std::max(e.most_occupied, value);
+    e.most_free = std::min(e.most_free, value);
   });
   for (const auto& [key, e] : evidence) {
-    const float update = e.first > 0.0f ? e.first : e.second;
+    const float update = tracer->options().combining == EvidenceCombining::kSum ? e.sum
+                         : e.most_occupied > 0.0f                               ? e.most_occupied
+                                                                                : e.most_free;
     if (update != 0.0f) tree->updateNode(key, update);
   }
+}
+
+InsertOptions combiningBy(EvidenceCombining combining) {
+  InsertOptions o;
+  o.combining = combining;
+  return o;
 }
 
 void clampLikeTheMapper(octomap::OcTree* tree) { useMapperThresholds(MapperOptions{}, tree); }
@@ -60,7 +73,11 @@ void clampLikeTheMapper(octomap::OcTree* tree) { useMapperThresholds(MapperOptio
 // Level scans of a simulated tour, a few tilted ones (generic path, partly through the cache),
 // flushes at random moments, and a map that already holds data (loaded values outside the
 // clamping bounds, pruned nodes) before the first scan.
-TEST(LayerCache, FastPathGivesTheSameOctreeAsUpdateNodePerVoxel) {
+class LayerCacheBothRules : public ::testing::TestWithParam<EvidenceCombining> {};
+INSTANTIATE_TEST_SUITE_P(Combining, LayerCacheBothRules,
+                         ::testing::Values(EvidenceCombining::kSum, EvidenceCombining::kOccupiedWins));
+
+TEST_P(LayerCacheBothRules, FastPathGivesTheSameOctreeAsUpdateNodePerVoxel) {
   const sim::SimulatedSession session(sim::FloorPlan::office(), sim::SessionSpec::officeTour());
   octomap::OcTree fast(0.05), reference(0.05), tracer_tree(0.05);
   for (octomap::OcTree* t : {&fast, &reference, &tracer_tree}) clampLikeTheMapper(t);
@@ -76,8 +93,8 @@ TEST(LayerCache, FastPathGivesTheSameOctreeAsUpdateNodePerVoxel) {
     t->updateNode(octomap::point3d(1.05f, 1.0f, 0.275f), -5.0f, true);
     t->updateInnerOccupancy();
   }
-  ScanInserter inserter(&fast, InsertOptions{});
-  ScanInserter tracer(&tracer_tree, InsertOptions{});  // only traces (its own tree stays empty)
+  ScanInserter inserter(&fast, combiningBy(GetParam()));
+  ScanInserter tracer(&tracer_tree, combiningBy(GetParam()));  // only traces (its own tree stays empty)
   std::mt19937 rng(5);
   std::uniform_int_distribution<int> coin(0, 9);
   const auto times = session.scanTimes();
@@ -108,11 +125,11 @@ TEST(LayerCache, FastPathGivesTheSameOctreeAsUpdateNodePerVoxel) {
 // Returns so far apart that the scan's key box is too large for the evidence window: the
 // updates are combined in a hash map instead, and must give the reference's octree too, on the
 // level path and on the generic one.
-TEST(LayerCache, TooLargeABoxForTheWindowGivesTheSameOctree) {
+TEST_P(LayerCacheBothRules, TooLargeABoxForTheWindowGivesTheSameOctree) {
   octomap::OcTree fast(0.05), reference(0.05), tracer_tree(0.05);
   for (octomap::OcTree* t : {&fast, &reference, &tracer_tree}) clampLikeTheMapper(t);
-  ScanInserter inserter(&fast, InsertOptions{});
-  ScanInserter tracer(&tracer_tree, InsertOptions{});
+  ScanInserter inserter(&fast, combiningBy(GetParam()));
+  ScanInserter tracer(&tracer_tree, combiningBy(GetParam()));
   // Two returns 210 m out, one along x and one along y (the beams between them read nothing).
   constexpr float kRange = 210.0f, kIncrement = 0.01f;
   const int beams = int(std::lround(M_PI / 2 / kIncrement)) + 1;

@@ -51,32 +51,3 @@ TEST(ScoreOccupancy, UnobservedWallsAreNotHeldAgainstTheMap) {
   EXPECT_EQ(s.truth_observed, 5u);
   EXPECT_DOUBLE_EQ(s.recall, 1.0);
 }
-
-TEST(PredictRanges, CastsToTheFirstOccupiedCell) {
-  GridImage map = blank(40, 40, 0);  // 4 m x 4 m of free space, 0.1 m cells
-  for (int j = 0; j < 40; ++j) set(&map, 20, j, 100);  // a wall filling x in [2.0, 2.1)
-  Scan scan;
-  scan.sensor_pose.translation() = Eigen::Vector3d(0.55, 0.55, 0.26);
-  scan.angle_min = 0.0f;
-  scan.angle_increment = static_cast<float>(M_PI / 2);
-  scan.range_min = 0.02f;
-  scan.range_max = 3.0f;
-  // Beam 0 (+x) reads the wall exactly (1.45 m); beam 1 (+y) sees nothing in the map but reads 1.0;
-  // beam 2 (-x) is a no-return and is not scored.
-  scan.ranges = {1.45f, 1.0f, 3.0f};
-  RangePredictionError e = predictRanges(map, {scan});
-  ASSERT_EQ(e.beams, 2u);
-  EXPECT_EQ(e.nothing_hit, 1u);
-  EXPECT_NEAR(e.mean_abs_error, 0.5 * (0.0 + (3.0 - 1.0)), 1e-5) << "nothing hit: the cast limit is expected";
-  EXPECT_DOUBLE_EQ(e.within_10cm, 0.5);
-  // A 0.15 m error along +x is outside 10 cm; a cast limit of 2 m caps the other beam's expectation.
-  scan.ranges = {1.60f, 1.0f, 3.0f};
-  e = predictRanges(map, {scan}, 2.0);
-  EXPECT_NEAR(e.mean_abs_error, 0.5 * (0.15 + 1.0), 1e-5);
-  EXPECT_DOUBLE_EQ(e.within_10cm, 0.0);
-  // Diagonal: from (0.55, 0.55) at 45 deg the wall starts at x = 2.0: 1.45 * sqrt(2).
-  scan.angle_min = static_cast<float>(M_PI / 4);
-  scan.ranges = {static_cast<float>(1.45 * std::sqrt(2.0))};
-  e = predictRanges(map, {scan});
-  EXPECT_LT(e.mean_abs_error, 1e-5);
-}

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <map>
 #include <random>
 #include <tuple>
@@ -37,14 +38,23 @@ TEST(ScanEvidence, CodeIsExactAndOrdersByTheCombiningRule) {
 }
 
 // Random evidence in a 3D box over several scans: drain() gives each voxel once, with the value
-// the rule picks, in first-touch order, and nothing of a scan survives into the next.
-TEST(ScanEvidence, CombinesEachVoxelOncePerScan) {
+// the rule gives (the sum in add order; or the strongest occupied, else the strongest free), in
+// first-touch order, and nothing of a scan survives into the next.
+class ScanEvidenceBothRules : public ::testing::TestWithParam<EvidenceCombining> {};
+INSTANTIATE_TEST_SUITE_P(Combining, ScanEvidenceBothRules,
+                         ::testing::Values(EvidenceCombining::kSum, EvidenceCombining::kOccupiedWins));
+
+TEST_P(ScanEvidenceBothRules, CombinesEachVoxelOncePerScan) {
   std::mt19937 rng(3);
-  ScanEvidence evidence;
+  ScanEvidence evidence(GetParam());
+  const bool sum = GetParam() == EvidenceCombining::kSum;
+  struct Expected {
+    float most_occupied = 0.0f, most_free = 0.0f, sum = 0.0f;
+  };
   for (int scan = 0; scan < 5; ++scan) {
     const octomap::OcTreeKey lo(32000 + 10 * scan, 32100 - 7 * scan, 32760), hi(lo[0] + 40, lo[1] + 25, lo[2] + 2);
     ASSERT_TRUE(evidence.begin(boxOf(lo, hi), 3000));
-    std::map<KeyTuple, std::pair<float, float>> expected;  // strongest positive, strongest negative
+    std::map<KeyTuple, Expected> expected;
     std::vector<KeyTuple> order;
     std::uniform_int_distribution<int> dx(0, 40), dy(0, 25), dz(0, 2), pick(0, 9);
     std::uniform_real_distribution<float> value(-2.0f, 2.0f);
@@ -53,20 +63,43 @@ TEST(ScanEvidence, CombinesEachVoxelOncePerScan) {
       const float v = pick(rng) == 0 ? 0.0f : value(rng);  // zero: no evidence
       evidence.add(key, v);
       if (v == 0.0f) continue;
-      auto [it, fresh] = expected.emplace(tupleOf(key), std::make_pair(0.0f, 0.0f));
+      auto [it, fresh] = expected.emplace(tupleOf(key), Expected{});
       if (fresh) order.push_back(tupleOf(key));
-      it->second.first = std::max(it->second.first, v);
-      it->second.second = std::min(it->second.second, v);
+      it->second.most_occupied = std::max(it->second.most_occupied, v);
+      it->second.most_free = std::min(it->second.most_free, v);
+      it->second.sum += v;
+    }
+    if (sum) {  // a sum of exactly zero is no update
+      order.erase(std::remove_if(order.begin(), order.end(), [&](const KeyTuple& k) { return expected[k].sum == 0.0f; }),
+                  order.end());
     }
     std::vector<KeyTuple> drained;
     evidence.drain([&](const octomap::OcTreeKey& key, float update) {
       drained.push_back(tupleOf(key));
-      const auto& [pos, neg] = expected.at(tupleOf(key));
-      EXPECT_EQ(update, pos > 0.0f ? pos : neg);
+      const Expected& e = expected.at(tupleOf(key));
+      EXPECT_EQ(update, sum ? e.sum : e.most_occupied > 0.0f ? e.most_occupied : e.most_free);
     });
     EXPECT_EQ(drained, order);
     evidence.drain([&](const octomap::OcTreeKey&, float) { ADD_FAILURE() << "drained twice"; });
   }
+}
+
+// A sum that comes back to exactly zero keeps its voxel listed once and hands on no zero update.
+TEST(ScanEvidence, ASumBackAtZeroIsListedOnce) {
+  ScanEvidence evidence(EvidenceCombining::kSum);
+  const octomap::OcTreeKey lo(1000, 1000, 32768), hi(1010, 1010, 32768), key(1005, 1005, 32768);
+  ASSERT_TRUE(evidence.begin(boxOf(lo, hi), 3));
+  evidence.add(key, 0.5f);
+  evidence.add(key, -0.5f);
+  evidence.add(key, 0.25f);
+  std::vector<float> updates;
+  evidence.drain([&](const octomap::OcTreeKey&, float update) { updates.push_back(update); });
+  EXPECT_EQ(updates, std::vector<float>{0.25f});
+  ASSERT_TRUE(evidence.begin(boxOf(lo, hi), 2));
+  evidence.add(key, 0.5f);
+  evidence.add(key, -0.5f);
+  evidence.drain([&](const octomap::OcTreeKey&, float update) { updates.push_back(update); });
+  EXPECT_EQ(updates.size(), 1u);
 }
 
 TEST(ScanEvidence, RefusesBoxesLargerThanItsLimit) {

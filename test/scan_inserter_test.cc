@@ -7,6 +7,7 @@
 #include <random>
 #include <vector>
 
+#include "octo_slice_mapper/mapper.h"
 #include "test_helpers.h"
 
 using namespace octo_slice_mapper;
@@ -65,16 +66,25 @@ TEST(ScanInserter, TiltedRobotTiltsTheRays) {
   EXPECT_EQ(nodeAt(tree, hit.x(), hit.y(), 0.26), nullptr) << "a level ray would have ended here";
 }
 
-TEST(ScanInserter, EachVoxelUpdatedOncePerScan) {
-  octomap::OcTree tree(0.05);
-  ScanInserter inserter(&tree, InsertOptions{});
-  // 200 beams in practically the same direction all cross the same voxels.
-  const Scan scan = makeScan(laserPoseOnRobot(0, 0, 0), 0.0f, 1e-6f, std::vector<float>(200, 2.0f));
-  ASSERT_TRUE(inserter.insert(scan).ok());
-  inserter.flush();
-  const auto* free_voxel = nodeAt(tree, 1.0, 0.0, 0.26);
-  ASSERT_NE(free_voxel, nullptr);
-  EXPECT_NEAR(free_voxel->getLogOdds(), inserter.model().logOddsFree(), 1e-4);
+// 20 beams in practically the same direction all cross the same voxels: each voxel gets one
+// update, the sum of the beams' evidence (or, occupied-wins, the strongest one).
+TEST(ScanInserter, EachVoxelGetsOneCombinedUpdatePerScan) {
+  for (EvidenceCombining combining : {EvidenceCombining::kSum, EvidenceCombining::kOccupiedWins}) {
+    octomap::OcTree tree(0.05);
+    tree.setClampingThresMin(1e-6);  // log-odds -13.8: no clamping of 20 beams' -8.1
+    InsertOptions options;
+    options.combining = combining;
+    ScanInserter inserter(&tree, options);
+    const Scan scan = makeScan(laserPoseOnRobot(0, 0, 0), 0.0f, 1e-6f, std::vector<float>(20, 2.0f));
+    const InsertResult result = inserter.insert(scan);
+    ASSERT_TRUE(result.ok());
+    inserter.flush();
+    const auto* free_voxel = nodeAt(tree, 1.0, 0.0, 0.26);
+    ASSERT_NE(free_voxel, nullptr);
+    const double expected = (combining == EvidenceCombining::kSum ? 20.0 : 1.0) * inserter.model().logOddsFree();
+    EXPECT_NEAR(free_voxel->getLogOdds(), expected, 1e-4);
+    EXPECT_EQ(result.voxels_updated, result.updated_keys.size()) << "one update per voxel";
+  }
 }
 
 TEST(ScanInserter, NeighbouringBeamDoesNotEraseAReturn) {
@@ -247,4 +257,28 @@ TEST(ScanInserter, FreeValleyShortcutsGiveWhatTheModelGives) {
     EXPECT_GT(pairs, 50000u);
     EXPECT_GT(free_pairs, pairs / 3) << "the free valley is most of a scan";
   }
+}
+
+// A beam that runs along a wall, 3 cm from the centres of the wall's voxels but never entering
+// them, leaves the wall alone: only the voxels the axis crosses are judged on the axis (judged by
+// their part nearest the axis, as before issue 18, this beam cleared the wall it grazed).
+TEST(ScanInserter, ABeamGrazingAWallClearsOnlyTheVoxelsItCrosses) {
+  octomap::OcTree tree(0.05);
+  useMapperThresholds(MapperOptions{}, &tree);
+  for (double x = 0.025; x < 3.0; x += 0.05) tree.updateNode(octomap::point3d(x, 0.075, 0.275), 2.0f);
+  ScanInserter inserter(&tree, InsertOptions{});
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translation() = Eigen::Vector3d(0.0, 0.045, 0.26);  // in the voxel row below the wall's
+  ASSERT_TRUE(inserter.insert(makeScan(pose, 0.0f, 0.01f, {3.0f})).ok());
+  inserter.flush();
+  int cleared = 0, wall = 0;
+  for (double x = 0.025; x < 2.9; x += 0.05, ++wall) {
+    const auto* n = nodeAt(tree, x, 0.075, 0.275);
+    ASSERT_NE(n, nullptr);
+    cleared += n->getLogOdds() < 2.0f;
+  }
+  EXPECT_EQ(cleared, 0) << "of " << wall << " wall voxels";
+  const auto* crossed = nodeAt(tree, 1.5, 0.045, 0.275);
+  ASSERT_NE(crossed, nullptr);
+  EXPECT_NEAR(crossed->getLogOdds(), inserter.model().logOddsFree(), 1e-4) << "the voxels it crosses are free";
 }

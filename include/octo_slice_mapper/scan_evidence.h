@@ -1,5 +1,6 @@
 // One scan's evidence per voxel, combined as the beams produce it: every voxel gets at most one
-// update per scan (see ScanInserter for the rule).
+// update per scan, the sum of its beams' evidence or (the rule before issue 18) the strongest
+// occupied evidence, else the strongest free one (see EvidenceCombining).
 #pragma once
 
 #include <cmath>
@@ -11,13 +12,23 @@
 
 namespace octo_slice_mapper {
 
+enum class EvidenceCombining : std::uint8_t {
+  // The beams of a scan are independent measurements: a voxel's update is the sum of theirs (the
+  // log-odds form of Bayes' rule), clamped like any update when applied.
+  kSum,
+  // The largest occupied evidence wins; without any, the strongest free evidence (octomap_server's
+  // KeySets do the same with hit/miss): a return is never erased by a beam of the same scan.
+  kOccupiedWins,
+};
+
 // A dense window over the scan's key box holds one word per voxel; between scans it is all zero
 // (drain() clears what the scan wrote), so starting a scan costs nothing.
 //
-// The combining rule (the largest occupied evidence wins; without any, the strongest free
-// evidence) is a single unsigned max over code(value): positive values get the top bit, so they
-// rank above every negative one, and a float's bits order like its magnitude. code() is exact and
-// invertible: the update drain() hands on is one of the values add() was given.
+// kOccupiedWins is a single unsigned max over code(value): positive values get the top bit, so
+// they rank above every negative one, and a float's bits order like its magnitude. code() is
+// exact and invertible: the update drain() hands on is one of the values add() was given.
+// kSum keeps the running sum's float bits in the word (a sum that comes back to exactly zero is
+// kept as -0, so that the voxel stays listed; drain() hands on no zero update).
 class ScanEvidence {
  public:
   // Windows above this many voxels (each side rounded up to a power of two) would cost more
@@ -25,7 +36,7 @@ class ScanEvidence {
   // the scan another way.
   static constexpr std::size_t kMaxCells = std::size_t{1} << 24;
 
-  ScanEvidence() = default;
+  explicit ScanEvidence(EvidenceCombining combining = EvidenceCombining::kSum) : combining_(combining) {}
   ~ScanEvidence();
   ScanEvidence(const ScanEvidence&) = delete;
   ScanEvidence& operator=(const ScanEvidence&) = delete;
@@ -37,10 +48,10 @@ class ScanEvidence {
   __attribute__((always_inline)) inline void add(const octomap::OcTreeKey& key, float value) {
     const std::uint32_t index = indexOf(key);
     std::uint32_t& cell = cells_[index];
-    const std::uint32_t old = cell, c = code(value);
-    cell = c > old ? c : old;
+    const std::uint32_t old = cell;
+    cell = combine(combining_, old, value);
     touched_[count_] = index;  // kept only if this is the voxel's first evidence (branch-free)
-    count_ += (old == 0) & (c != 0);
+    count_ += (old == 0) & (value != 0.0f);
   }
   // Calls fn(key, update) once per voxel that received evidence since begin(), in the order they
   // first did, and leaves the window empty for the next scan.
@@ -48,7 +59,8 @@ class ScanEvidence {
   void drain(Fn&& fn) {
     for (std::size_t i = 0; i < count_; ++i) {
       const std::uint32_t index = touched_[i];
-      fn(keyOf(index), value(cells_[index]));
+      const float v = decode(combining_, cells_[index]);
+      if (v != 0.0f) fn(keyOf(index), v);
       cells_[index] = 0;
     }
     count_ = 0;
@@ -68,6 +80,26 @@ class ScanEvidence {
     std::memcpy(&magnitude, &bits, sizeof magnitude);
     return code & 0x80000000u ? magnitude : -magnitude;
   }
+  // A voxel's word after evidence `value` joins `word` (0: none yet), and the update it stands for.
+  static std::uint32_t combine(EvidenceCombining combining, std::uint32_t word, float value) {
+    if (combining == EvidenceCombining::kOccupiedWins) {
+      const std::uint32_t c = code(value);
+      return c > word ? c : word;
+    }
+    float sum;
+    std::memcpy(&sum, &word, sizeof sum);  // word 0 is +0.0f
+    sum += value;
+    std::uint32_t bits;
+    std::memcpy(&bits, &sum, sizeof bits);
+    return (bits == 0 && word != 0) ? 0x80000000u : bits;  // back to +0: keep it listed, as -0
+  }
+  static float decode(EvidenceCombining combining, std::uint32_t word) {
+    if (combining == EvidenceCombining::kOccupiedWins) return value(word);
+    float sum;
+    std::memcpy(&sum, &word, sizeof sum);
+    return sum;
+  }
+  EvidenceCombining combining() const { return combining_; }
 
  private:
   // Power-of-two strides: an index converts back to its key by shifts and masks (drain needs the
@@ -81,6 +113,7 @@ class ScanEvidence {
                               (index >> shift_z_) + lo_[2]);
   }
 
+  EvidenceCombining combining_;
   std::uint32_t* cells_ = nullptr;  // calloc'ed: pages a scan never reaches are never made resident
   std::size_t capacity_ = 0;
   unsigned shift_y_ = 0, shift_z_ = 0;

@@ -24,6 +24,8 @@ struct InsertOptions {
   // Returns farther than this (m) are cut: space up to max_range is cleared, nothing marked
   // occupied. 0 = use only the sensor's own range_max.
   double max_range = 0.0;
+  // How the beams of one scan combine per voxel (see ScanEvidence).
+  EvidenceCombining combining = EvidenceCombining::kSum;
 };
 
 struct InsertResult {
@@ -45,16 +47,14 @@ struct Beam {
   Eigen::Vector3d across = Eigen::Vector3d::Zero();
 };
 
-// Which voxels a beam reaches: the voxels its axis crosses, plus, where the cone is wider than a
-// voxel (sparse scans, long ranges), those crossed by extra rays fanned across the cone in the
-// scan plane, at most one voxel apart. Each is weighted by the model at the angle between the
-// beam axis and the voxel's part nearest to it.
+// Which voxels a beam reaches: the voxels its axis crosses (judged as on the axis), plus, where
+// the cone is wider than a voxel (long ranges), those crossed by extra rays fanned across the
+// cone in the scan plane, at most one voxel apart, each weighted by the model at the angle
+// between the beam axis and the voxel's centre.
 //
-// How overlapping beams combine inside one scan: every voxel gets at most one update per scan.
-// Of all beams whose cone covers a voxel, occupied evidence wins (the largest positive update);
-// only when no beam saw an obstacle there does the strongest free evidence apply. So a return is
-// never erased by a neighbouring beam that passes it, and a voxel crossed by many beams near the
-// sensor is not cleared many times over.
+// How overlapping beams combine inside one scan: every voxel gets one update per scan, the sum
+// of its beams' evidence (InsertOptions::combining; or the strongest occupied evidence, else the
+// strongest free one).
 class ScanInserter {
  public:
   ScanInserter(octomap::OcTree* tree, const InsertOptions& options);
@@ -109,6 +109,8 @@ class ScanInserter {
   template <typename Sink>
   void traceBeams(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key, const std::vector<Beam>& beams,
                   double half_angle, Sink&& sink, bool shortcuts);
+  template <typename Sink>
+  static void handOnOncePerVoxel(std::vector<KeyUpdate>* evidence, Sink& sink);
   double traceLength(const Beam& beam) const;
   struct Ray {
     Eigen::Vector3d direction;
@@ -131,6 +133,7 @@ class ScanInserter {
   std::vector<Ray> rays_;               // the current scan's rays (prepareBeams)
   std::vector<std::size_t> ray_begin_;  // beam b's are rays_[ray_begin_[b], ray_begin_[b + 1])
   std::size_t max_visits_ = 0;          // bounds how many voxels the rays visit
+  std::vector<KeyUpdate> beam_evidence_;  // a fanned beam's evidence before it is combined
   std::optional<InverseSensorModel::ConeTable> cone_;  // for the last half-angle seen
 
   LayerCache cache_;

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 
 namespace octo_slice_mapper {
 namespace {
@@ -53,70 +52,6 @@ OccupancyScore scoreOccupancy(const GridImage& map, const GridImage& truth, int 
   score.precision = score.map_occupied ? double(true_positive_map) / score.map_occupied : 0.0;
   score.recall = score.truth_observed ? double(hit_truth) / score.truth_observed : 0.0;
   return score;
-}
-
-namespace {
-
-// Distance along the planar ray from (ox, oy) in direction (dx, dy) to the first cell of `map`
-// above `occupied_percent`, walking cell by cell (Amanatides & Woo); `limit` if none before it.
-double castRay(const GridImage& map, double ox, double oy, double dx, double dy, double limit, int occupied_percent) {
-  const double fx = (ox - map.origin_x) / map.resolution, fy = (oy - map.origin_y) / map.resolution;
-  int i = static_cast<int>(std::floor(fx)), j = static_cast<int>(std::floor(fy));
-  const double inf = std::numeric_limits<double>::infinity();
-  const int step_i = dx > 0 ? 1 : -1, step_j = dy > 0 ? 1 : -1;
-  const double delta_i = dx != 0 ? std::abs(1.0 / dx) : inf, delta_j = dy != 0 ? std::abs(1.0 / dy) : inf;
-  double t_i = dx != 0 ? (dx > 0 ? (i + 1 - fx) : (fx - i)) * delta_i : inf;
-  double t_j = dy != 0 ? (dy > 0 ? (j + 1 - fy) : (fy - j)) * delta_j : inf;
-  const double limit_cells = limit / map.resolution;
-  double t = 0.0;  // in cells, where the ray entered cell (i, j)
-  while (t <= limit_cells) {
-    if (i >= 0 && j >= 0 && i < map.width && j < map.height && map.at(i, j) > occupied_percent) {
-      return t * map.resolution;
-    }
-    if (t_i < t_j) {
-      t = t_i, i += step_i, t_i += delta_i;
-    } else {
-      t = t_j, j += step_j, t_j += delta_j;
-    }
-  }
-  return limit;
-}
-
-}  // namespace
-
-RangePredictionError predictRanges(const GridImage& map, const std::vector<Scan>& scans, double max_range,
-                                   int occupied_percent) {
-  RangePredictionError out;
-  std::vector<double> errors;
-  for (const Scan& scan : scans) {
-    const Eigen::Vector3d origin = scan.sensor_pose.translation();
-    const double limit = max_range > 0.0 ? std::min<double>(max_range, scan.range_max) : scan.range_max;
-    for (std::size_t k = 0; k < scan.ranges.size(); ++k) {
-      const float z = scan.ranges[k];
-      if (classifyReading(z, scan.range_min, scan.range_max, {}) != ReadingKind::kHit || z > limit) continue;
-      const double a = scan.beamAngle(k);
-      const Eigen::Vector3d d = scan.sensor_pose.linear() * Eigen::Vector3d(std::cos(a), std::sin(a), 0.0);
-      const double planar = std::hypot(d.x(), d.y());
-      if (planar < 1e-3) continue;
-      const double expected = castRay(map, origin.x(), origin.y(), d.x() / planar, d.y() / planar, limit * planar,
-                                      occupied_percent);
-      if (expected >= limit * planar) ++out.nothing_hit;
-      errors.push_back(std::abs(expected - z * planar));
-    }
-  }
-  out.beams = errors.size();
-  if (errors.empty()) return out;
-  double sum = 0.0;
-  std::size_t close = 0;
-  for (double e : errors) {
-    sum += e;
-    close += e <= 0.10;
-  }
-  out.mean_abs_error = sum / errors.size();
-  out.within_10cm = static_cast<double>(close) / errors.size();
-  std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
-  out.median_abs_error = errors[errors.size() / 2];
-  return out;
 }
 
 }  // namespace octo_slice_mapper

@@ -97,7 +97,11 @@ inline void traverseLevel(const octomap::OcTree& tree, const Eigen::Vector3d& fr
 }  // namespace
 
 ScanInserter::ScanInserter(octomap::OcTree* tree, const InsertOptions& options)
-    : tree_(tree), options_(options), model_(options.model, 0.5 * tree->getResolution()), cache_(tree) {}
+    : tree_(tree),
+      options_(options),
+      model_(options.model, tree->getResolution()),
+      evidence_(options.combining),
+      cache_(tree) {}
 
 std::vector<Beam> ScanInserter::beamsOf(const Scan& scan, ReadingCounts* counts) const {
   std::vector<Beam> beams;
@@ -232,11 +236,10 @@ KeyBox ScanInserter::prepareBeams(const Eigen::Vector3d& origin, const octomap::
 // in the beam's free valley with full weight, so that judging it would give exactly l_free: the
 // voxel's centre c is within half_diagonal (h) of p, the point where the ray leaves it, at
 // distance s from the origin and angle a off the axis. Then c lies at most s + h along the axis,
-// and its part nearest the axis at most s sin(a) off it while c is at least s cos(a) - h along:
-//  - on the axis (a = 0) c is within h of the axis, which makes it an axis voxel: s + h <
-//    pure_free_until suffices;
-//  - off it, s sin(a) < tan_full (s cos(a) - h) puts it inside the full-weight part of the cone,
-//    and s + h < off_axis_free_until before the end of the free valley there.
+// at most s sin(a) + h off it, and at least s cos(a) - h along:
+//  - the axis' own voxels are judged as on the axis: s + h < pure_free_until suffices;
+//  - off it, s sin(a) + h < tan_full (s cos(a) - h) puts the centre inside the full-weight part
+//    of the cone, and s + h < off_axis_free_until before the end of the free valley there.
 // (1e-6 m of slack covers rounding in the walk's exit distances.)
 void ScanInserter::freeStretch(const Ray& ray, const Eigen::Vector3d& axis, double pure_free_until,
                                double off_axis_free_until, double tan_full, double half_diagonal, double* s_lo,
@@ -250,9 +253,9 @@ void ScanInserter::freeStretch(const Ray& ray, const Eigen::Vector3d& axis, doub
   }
   const double cos_a = std::min(1.0, ray.direction.dot(axis));
   const double sin_a = std::sqrt(std::max(0.0, 1.0 - cos_a * cos_a));
-  const double g = tan_full * cos_a - sin_a;  // s * g > tan_full * h: inside the full-weight part
+  const double g = tan_full * cos_a - sin_a;  // s * g > (1 + tan_full) * h: inside the full-weight part
   if (!(g > 0.0)) return;                     // never: the ray runs in the cone's taper
-  *s_lo = tan_full * h / g + kSlack;
+  *s_lo = (1.0 + tan_full) * h / g + kSlack;
   *s_hi = off_axis_free_until - h;
 }
 
@@ -267,44 +270,62 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
   const double tan_full = std::tan(model_.fullWeightAngle(half_angle));
   // A voxel's centre is at most half its diagonal from any point inside it.
   const double half_diagonal = 0.5 * std::sqrt(3.0) * tree_->getResolution();
-  const double half_diagonal_sq = half_diagonal * half_diagonal;
   const float l_free = model_.logOddsFree();
   const double resolution = tree_->getResolution();
   const int center = 1 << (tree_->getTreeDepth() - 1);  // the key of coordinate 0 (OctoMap's tree_max_val)
+  bool axis_ray = false;  // whether the ray being walked is its beam's axis
   for (std::size_t b = 0; b < beams.size(); ++b) {
     if (ray_begin_[b] == ray_begin_[b + 1]) continue;  // left the octree
     const Beam& beam = beams[b];
     const double length = traceLength(beam);
+    // A beam's fanned rays cross some voxels of the axis and of each other: its evidence is
+    // gathered first, so that each voxel gets the beam's evidence once (the strongest occupied,
+    // else the strongest free) however many of its rays cross it.
+    const bool fanned = ray_begin_[b + 1] - ray_begin_[b] > 1;
+    beam_evidence_.clear();
+    auto emit = [&](const octomap::OcTreeKey& key, float value) __attribute__((always_inline)) {
+      if (fanned) {
+        beam_evidence_.push_back({key, value});
+      } else {
+        sink(key, value);
+      }
+    };
     // On the axis, closer than this the model is exactly the free valley (see hitUpdate).
     const double pure_free_until = beam.length - model_.pureFreeMargin(beam.length);
     // Off the axis, where the weight is still 1, the free valley ends sooner (sigma widens).
     const double off_axis_free_until =
         beam.length + InverseSensorModel::kPureFreeBelow * model_.sigmaAt(beam.length, half_angle, half_angle);
+    // One return is one obstacle somewhere across the cone: a voxel off the axis holds its width's
+    // share of a cross-section wider than a voxel (the axis' voxels hold the most likely part).
+    const double cross_section = 2.0 * beam.length * tan_half;
+    const double off_axis_share = cross_section > resolution ? resolution / cross_section : 1.0;
     // The model's evidence for a voxel whose centre lies `along` the axis and sqrt(lateral_sq) off it.
     auto judge = [&](const octomap::OcTreeKey& key, double along, double lateral_sq) __attribute__((always_inline)) {
       along = std::max(0.0, along);
-      // Voxels the axis passes through are squarely inside the cone.
-      const bool on_axis = lateral_sq <= half_diagonal_sq || along <= 0.0;
+      // The voxels the axis passes through are judged on the axis; the others by the angle of
+      // their centre (judging them by their part nearest the axis, a beam grazing a wall cleared
+      // wall voxels it never entered, issue 18).
+      const bool on_axis = axis_ray || along <= 0.0;
       if (on_axis && along < pure_free_until) {
-        sink(key, l_free);
+        emit(key, l_free);
         return;
       }
       double q = 0.0;  // tan(angle off the axis) / tan(half-angle)
       if (!on_axis) {
-        // tan of the angle between the axis and the voxel's part nearest to it; the model only
-        // when the voxel is in the cone's taper or near the return.
+        // tan of the angle between the axis and the voxel's centre; the model only when the voxel
+        // is in the cone's taper or near the return.
         // (Compared as products: a division only for the voxels that need the model.)
-        const double reach = std::sqrt(lateral_sq) - half_diagonal;  // of that part, off the axis
+        const double reach = std::sqrt(lateral_sq);
         if (reach >= tan_half * along) return;                       // outside the cone
         if (reach <= tan_full * along && along < off_axis_free_until) {
-          sink(key, l_free);
+          emit(key, l_free);
           return;
         }
         q = reach / (along * tan_half);
       }
-      const float value = beam.hit ? model_.hitUpdateInCone(beam.length, along, q, cone)
+      const float value = beam.hit ? model_.hitUpdateInCone(beam.length, along, q, cone, on_axis ? 1.0 : off_axis_share)
                                    : model_.noReturnUpdateInCone(beam.length, along, q, cone);
-      if (value != 0.0f) sink(key, value);
+      if (value != 0.0f) emit(key, value);
     };
     auto evaluate = [&](const octomap::OcTreeKey& key) __attribute__((always_inline)) {
       const octomap::point3d c = tree_->keyToCoord(key);
@@ -327,10 +348,10 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
     // Per voxel of a ray, evaluating it with `eval`, except that voxels the ray leaves at a
     // fraction t_exit in (t_lo, t_hi) of its length are the free valley without evaluating.
     auto visitor = [&](double t_lo, double t_hi, const auto& eval) {
-      return [&sink, eval, t_lo, t_hi, l_free](const octomap::OcTreeKey& key,
+      return [&emit, eval, t_lo, t_hi, l_free](const octomap::OcTreeKey& key,
                                                double t_exit) __attribute__((always_inline)) {
         if (t_exit > t_lo && t_exit < t_hi) {
-          sink(key, l_free);
+          emit(key, l_free);
         } else {
           eval(key);
         }
@@ -340,6 +361,7 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
     const bool level_beam = beam.direction.z() == 0.0 && beam.across.z() == 0.0 && !beam.across.isZero();
     for (std::size_t r = ray_begin_[b]; r < ray_begin_[b + 1]; ++r) {
       const Ray& ray = rays_[r];
+      axis_ray = ray.axis;
       if (ray.start >= length) continue;
       const Eigen::Vector3d from = origin + ray.direction * ray.start;
       const Eigen::Vector3d far = origin + ray.direction * length;
@@ -357,8 +379,29 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
         traverseVoxels(*tree_, from, far, from_key, far_key, visitor(t_lo, t_hi, evaluate));
       }
     }
+    if (fanned) handOnOncePerVoxel(&beam_evidence_, sink);
   }
 }
+
+// Hands on each voxel of `evidence` once, with the strongest occupied (else free) value it has.
+template <typename Sink>
+void ScanInserter::handOnOncePerVoxel(std::vector<KeyUpdate>* evidence, Sink& sink) {
+  auto by_key = [](const KeyUpdate& a, const KeyUpdate& b) {
+    return a.key[2] != b.key[2] ? a.key[2] < b.key[2] : a.key[1] != b.key[1] ? a.key[1] < b.key[1] : a.key[0] < b.key[0];
+  };
+  std::sort(evidence->begin(), evidence->end(), by_key);
+  for (std::size_t i = 0; i < evidence->size();) {
+    std::uint32_t word = 0;
+    std::size_t j = i;
+    for (; j < evidence->size() && (*evidence)[j].key == (*evidence)[i].key; ++j) {
+      word = ScanEvidence::combine(EvidenceCombining::kOccupiedWins, word, (*evidence)[j].log_odds);
+    }
+    sink((*evidence)[i].key, ScanEvidence::value(word));
+    i = j;
+  }
+}
+
+
 
 std::vector<KeyUpdate> ScanInserter::computeUpdates(const Eigen::Vector3d& origin, const std::vector<Beam>& beams,
                                                     double half_angle) {
@@ -385,16 +428,18 @@ void ScanInserter::traceIntoWindow(const Eigen::Vector3d& origin, const octomap:
 std::vector<KeyUpdate> ScanInserter::sparseUpdates(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
                                                    const std::vector<Beam>& beams, double half_angle) {
   std::unordered_map<octomap::OcTreeKey, std::uint32_t, octomap::OcTreeKey::KeyHash> sparse;
+  const EvidenceCombining combining = options_.combining;
   traceBeams(
       origin, origin_key, beams, half_angle,
-      [&sparse](const octomap::OcTreeKey& key, float value) {
-        std::uint32_t& code = sparse[key];
-        code = std::max(code, ScanEvidence::code(value));
+      [&sparse, combining](const octomap::OcTreeKey& key, float value) {
+        std::uint32_t& word = sparse[key];
+        word = ScanEvidence::combine(combining, word, value);
       },
       /*shortcuts=*/true);
   std::vector<KeyUpdate> updates;
-  for (const auto& [key, code] : sparse) {
-    if (code != 0) updates.push_back({key, ScanEvidence::value(code)});
+  for (const auto& [key, word] : sparse) {
+    const float value = ScanEvidence::decode(combining, word);
+    if (value != 0.0f) updates.push_back({key, value});
   }
   return updates;
 }

@@ -43,6 +43,11 @@ diagnostic_msgs::DiagnosticArray toDiagnostics(const NodeCounters& c, std::uint6
   add("known_cells", std::to_string(c.known_cells));
   add("kept_scans", std::to_string(c.kept_scans));
   add("revisit_scans_not_kept", std::to_string(c.revisit_scans_not_kept));
+  add("online_passes", std::to_string(c.online_passes));
+  std::snprintf(ms, sizeof(ms), "%.3f", c.online_pass_seconds);
+  add("online_pass_s", ms);
+  std::snprintf(ms, sizeof(ms), "%.3f", c.optimized_map_age);
+  add("optimized_map_age_s", ms);
   const std::uint64_t new_skips = c.skippedTotal() - std::min(skipped_before, c.skippedTotal());
   if (new_skips == 0) {
     status.level = diagnostic_msgs::DiagnosticStatus::OK;

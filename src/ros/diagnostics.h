@@ -29,6 +29,10 @@ struct NodeCounters {
   double longest_service_lock_ms = 0.0;
   std::size_t voxels = 0, known_cells = 0, kept_scans = 0, revisit_scans_not_kept = 0;
   std::size_t waiting_for_tf = 0;  // in the tf filter's queue, within their timeout
+  // The background global pass (~online_optimize): passes published, the last one's seconds, and
+  // how far its map was behind the newest scan when published (s).
+  std::uint64_t online_passes = 0;
+  double online_pass_seconds = 0.0, optimized_map_age = 0.0;
   std::uint64_t skippedTotal() const;
 };
 

@@ -104,6 +104,11 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
 
   publish_timer_ = nh_.createTimer(ros::Duration(1.0 / std::max(0.1, options_.publish_rate)), &MapperNode::publish, this);
   diagnostics_timer_ = nh_.createTimer(ros::Duration(1.0), &MapperNode::publishDiagnostics, this);
+  if (options_.online_optimize && mapper_.options().keep_scans) {
+    online_pass_ = std::make_unique<OnlinePass>(pnh_, mapper_.options().optimizer, mapper_.options().resolution,
+                                                mapper_.options().slice.min_z, options_.frame_id,
+                                                options_.online_optimize_period, [this] { return onlinePassInput(); });
+  }
   ROS_INFO("mapping in frame '%s' at %.3f m, slice z [%.2f, %.2f] m", options_.frame_id.c_str(),
            mapper_.options().resolution, mapper_.options().slice.min_z, mapper_.options().slice.max_z);
 }
@@ -333,6 +338,12 @@ void MapperNode::publishDiagnostics(const ros::TimerEvent&) {
     counters_.kept_scans = mapper_.scanStore().scans().size();
     counters_.revisit_scans_not_kept = mapper_.scanStore().skippedAsRevisit();
     counters_.waiting_for_tf = waiting_scans_.waiting();  // this timer runs on the same queue as the scans
+    if (online_pass_) {
+      const OnlinePassStats online = online_pass_->stats();
+      counters_.online_passes = online.passes;
+      counters_.online_pass_seconds = online.last_pass_seconds;
+      counters_.optimized_map_age = online.last_result_age;
+    }
     array = toDiagnostics(counters_, skipped_at_last_report_, ros::this_node::getName(), ros::Time::now());
     skipped_at_last_report_ = counters_.skippedTotal();
   }
@@ -477,11 +488,24 @@ bool MapperNode::onReset(std_srvs::Empty::Request&, std_srvs::Empty::Response&) 
   mapper_.reset();
   map_changed_ = true;
   map_version_++;
+  if (online_pass_) online_pass_->forget();
   ROS_INFO("map reset");
   return true;
 }
 
+std::optional<OnlineOptimizerInput> MapperNode::onlinePassInput() {
+  const ros::WallTime since = ros::WallTime::now();
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (map_version_ == online_input_version_ || mapper_.scanStore().scans().empty()) return std::nullopt;
+  online_input_version_ = map_version_;
+  MapSnapshot copy = mapper_.optimizationInput();
+  noteServiceLock(since);
+  return OnlineOptimizerInput{std::move(copy.scans), std::move(copy.slice), map_version_, last_scan_stamp_.toSec()};
+}
+
 bool MapperNode::onGetMap(nav_msgs::GetMap::Request&, nav_msgs::GetMap::Response& res) {
+  // The best map there is: the background pass's newest result, else the slice.
+  if (online_pass_ && online_pass_->latest(&res.map)) return true;
   std::lock_guard<std::mutex> lock(mutex_);
   toOccupancyGrid(mapper_.slice(), options_.frame_id, ros::Time::now(), &res.map);
   return true;
@@ -511,6 +535,7 @@ bool MapperNode::savedAlready(const std::string& requested_prefix) const {
 
 // Runs after ros::spin() returned; roscpp has shut rosconsole down by then, so print directly.
 void MapperNode::shutdown() {
+  online_pass_.reset();  // waits for a running pass
   service_spinner_->stop();
   if (!options_.save_on_shutdown.empty() && savedAlready(options_.save_on_shutdown)) {
     std::fprintf(stderr, "[mapper_node] save on shutdown: skipped: the map is unchanged since it was saved to %s\n",

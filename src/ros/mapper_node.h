@@ -20,6 +20,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 
 #include "octo_slice_mapper/Optimize.h"
@@ -27,6 +28,7 @@
 #include "octo_slice_mapper/mapper.h"
 #include "ros/diagnostics.h"
 #include "ros/node_parameters.h"
+#include "ros/online_pass.h"
 #include "ros/pending_messages.h"
 
 namespace octo_slice_mapper {
@@ -68,6 +70,8 @@ class MapperNode {
   bool onReset(std_srvs::Empty::Request&, std_srvs::Empty::Response&);
   bool onGetMap(nav_msgs::GetMap::Request&, nav_msgs::GetMap::Response& res);
   bool onOptimize(Optimize::Request& req, Optimize::Response& res);
+  // The online pass's input when the map changed since the last one (copied under the map lock).
+  std::optional<OnlineOptimizerInput> onlinePassInput();
   void noteServiceLock(const ros::WallTime& since);  // with mutex_ held
   // Writes the global pass's result into the live map's slice band (if ~write_optimized_into_map).
   void applyOptimizedToMap(const GridImage& grid);
@@ -121,6 +125,9 @@ class MapperNode {
   ros::Time last_scan_stamp_;
   double insert_seconds_ = 0.0;
   ros::WallTime started_;
+  std::uint64_t online_input_version_ = ~std::uint64_t{0};  // map_version_ of the last pass's input
+  // Last: its thread reads mapper_ through the node until it is destroyed.
+  std::unique_ptr<OnlinePass> online_pass_;
 };
 
 }  // namespace ros_adapter

@@ -16,6 +16,13 @@ MapperOptions readMapperOptions(const ros::NodeHandle& pnh) {
   pnh.param("inf_is_no_return", o.insert.readings.inf_is_no_return, o.insert.readings.inf_is_no_return);
   InverseSensorModelOptions& m = o.insert.model;
   pnh.param("beam_opening_angle", m.beam_opening_angle, m.beam_opening_angle);
+  pnh.param("cone_covers_angle_step", m.cone_covers_angle_step, m.cone_covers_angle_step);
+  std::string combining = o.insert.combining == EvidenceCombining::kSum ? "sum" : "occupied_wins";
+  pnh.param("evidence_combining", combining, combining);
+  if (combining != "sum" && combining != "occupied_wins") {
+    ROS_WARN("~evidence_combining '%s' is neither 'sum' nor 'occupied_wins': using 'sum'", combining.c_str());
+  }
+  o.insert.combining = combining == "occupied_wins" ? EvidenceCombining::kOccupiedWins : EvidenceCombining::kSum;
   pnh.param("cone_taper_fraction", m.cone_taper_fraction, m.cone_taper_fraction);
   pnh.param("sigma_base", m.sigma_base, m.sigma_base);
   pnh.param("sigma_per_meter", m.sigma_per_meter, m.sigma_per_meter);
@@ -57,6 +64,8 @@ NodeOptions readNodeOptions(const ros::NodeHandle& pnh) {
   pnh.param("optimize_on_save", o.optimize_on_save, o.optimize_on_save);
   pnh.param("optimize_warm_start", o.optimize_warm_start, o.optimize_warm_start);
   pnh.param("write_optimized_into_map", o.write_optimized_into_map, o.write_optimized_into_map);
+  pnh.param("online_optimize", o.online_optimize, o.online_optimize);
+  pnh.param("online_optimize_period", o.online_optimize_period, o.online_optimize_period);
   const std::string package = ros::package::getPath("octo_slice_mapper");
   pnh.param("maps_dir", o.maps_dir, package.empty() ? std::string("maps") : package + "/maps");
   return o;

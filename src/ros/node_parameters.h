@@ -21,8 +21,10 @@ struct NodeOptions {
   std::string maps_dir;              // where ~save_map writes relative prefixes
   bool allow_any_path = false;       // let ~save_map write outside maps_dir
   bool optimize_on_save = false;     // every save also runs the global pass: PREFIX_optimized.*
-  bool optimize_warm_start = false;  // ... starting from the incremental map instead of all-free
+  bool optimize_warm_start = true;  // ... starting from the incremental map (false: all-free, the lab's start)
   bool write_optimized_into_map = true;  // the global pass's result goes into the octree's slice band
+  bool online_optimize = true;           // keep running the global pass in the background: ~optimized_map
+  double online_optimize_period = 1.0;   // s (wall) between looks for a changed map to optimize
 };
 
 MapperOptions readMapperOptions(const ros::NodeHandle& pnh);

@@ -1,0 +1,70 @@
+// The global pass kept running while mapping goes on (issue 18): a worker thread takes the newest
+// input (the kept scans and the map to start from), runs the hill climbing on it and leaves the
+// result for the mapping side to publish. Submitting never waits for a pass: an input not started
+// yet is replaced by a newer one, at most one pass runs at a time, and each result says which
+// input (version) it answers.
+#pragma once
+
+#include <condition_variable>
+#include <cstdint>
+#include <mutex>
+#include <optional>
+#include <thread>
+#include <vector>
+
+#include "octo_slice_mapper/optimized_map.h"
+
+namespace octo_slice_mapper {
+
+struct OnlineOptimizerInput {
+  std::vector<StoredScan> scans;
+  GridImage incremental;  // the incremental slice: the start where no earlier result knows a cell
+  std::uint64_t version = 0;
+  double newest_stamp = 0.0;  // of the newest scan in `scans` (s), handed back with the result
+};
+
+struct OnlineOptimizerResult {
+  OptimizedMap map;  // drawn in the frame of the input's incremental slice
+  std::uint64_t version = 0;
+  double newest_stamp = 0.0;
+  double seconds = 0.0;  // the pass, from taking its input to leaving its result
+};
+
+// The start of the next pass: the last result where it knows a cell (the pass goes on from where
+// it stopped), the incremental slice elsewhere (cells new scans reached), in the slice's frame.
+GridImage warmStartFrom(const GridImage& last_result, const GridImage& incremental);
+
+class OnlineOptimizer {
+ public:
+  OnlineOptimizer(const GlobalOptimizerOptions& options, double resolution);
+  ~OnlineOptimizer();  // waits for a running pass, starts no other
+  OnlineOptimizer(const OnlineOptimizer&) = delete;
+  OnlineOptimizer& operator=(const OnlineOptimizer&) = delete;
+
+  void submit(OnlineOptimizerInput input);
+  // The newest result not taken yet.
+  std::optional<OnlineOptimizerResult> take();
+  // A pass is running or an input waits for one.
+  bool busy() const;
+  // Forgets the last result (after the map was reset or replaced): the next pass starts from the
+  // incremental slice alone.
+  void forget();
+  // Bytes held: the waiting input's scans and the last result's grid.
+  std::size_t memoryBytes() const;
+
+ private:
+  void run();
+
+  const GlobalOptimizerOptions options_;
+  const double resolution_;
+  mutable std::mutex mutex_;
+  std::condition_variable wake_;
+  std::optional<OnlineOptimizerInput> waiting_;
+  std::optional<OnlineOptimizerResult> ready_;
+  GridImage last_;  // the last pass's result: the next one's start
+  std::uint64_t generation_ = 0;  // counts forget()s
+  bool running_ = false, stopping_ = false;
+  std::thread worker_;  // last: started once the rest is set up
+};
+
+}  // namespace octo_slice_mapper

@@ -1,0 +1,67 @@
+#include "ros/online_pass.h"
+
+#include "ros/map_conversion.h"
+
+namespace octo_slice_mapper {
+namespace ros_adapter {
+
+OnlinePass::OnlinePass(ros::NodeHandle pnh, const GlobalOptimizerOptions& options, double resolution,
+                       double slice_min_z, std::string frame_id, double period, InputFn take_input)
+    : optimizer_(options, resolution),
+      slice_min_z_(slice_min_z),
+      frame_id_(std::move(frame_id)),
+      take_input_(std::move(take_input)) {
+  publisher_ = pnh.advertise<nav_msgs::OccupancyGrid>("optimized_map", 1, true);
+  ros::NodeHandle own(pnh);
+  own.setCallbackQueue(&queue_);
+  timer_ = own.createWallTimer(ros::WallDuration(std::max(0.05, period)), &OnlinePass::tick, this);
+  spinner_ = std::make_unique<ros::AsyncSpinner>(1, &queue_);
+  spinner_->start();
+}
+
+OnlinePass::~OnlinePass() {
+  timer_.stop();
+  spinner_->stop();
+}
+
+void OnlinePass::tick(const ros::WallTimerEvent&) {
+  if (std::optional<OnlineOptimizerResult> result = optimizer_.take()) {
+    nav_msgs::OccupancyGrid grid;
+    const ros::Time now = ros::Time::now();
+    toOccupancyGrid(result->map.grid, slice_min_z_, frame_id_, now, &grid);
+    const double age = now.toSec() - result->newest_stamp;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      latest_ = grid;
+      stats_.passes++;
+      stats_.last_pass_seconds = result->seconds;
+      stats_.last_result_age = age;
+    }
+    publisher_.publish(grid);
+    ROS_DEBUG("online global pass: %d sweeps, %.2f s, its map %.2f s behind the newest scan when published",
+              result->map.report.sweeps, result->seconds, age);
+  }
+  if (optimizer_.busy()) return;
+  if (std::optional<OnlineOptimizerInput> input = take_input_()) optimizer_.submit(std::move(*input));
+}
+
+bool OnlinePass::latest(nav_msgs::OccupancyGrid* grid) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!latest_) return false;
+  *grid = *latest_;
+  return true;
+}
+
+void OnlinePass::forget() {
+  optimizer_.forget();
+  std::lock_guard<std::mutex> lock(mutex_);
+  latest_.reset();
+}
+
+OnlinePassStats OnlinePass::stats() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return stats_;
+}
+
+}  // namespace ros_adapter
+}  // namespace octo_slice_mapper
