@@ -280,7 +280,7 @@ class ServerModelThroughOurPath {
 
   octomap::OcTree* tree_;
   osm::LayerCache cache_;
-  osm::ScanEvidence evidence_;
+  osm::ScanEvidence evidence_{osm::EvidenceCombining::kOccupiedWins};  // as (a)'s KeySets
   octomap::KeyRay ray_;
   float hit_, miss_;
   Clock::duration walking_{}, applying_{};

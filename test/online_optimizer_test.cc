@@ -59,14 +59,20 @@ TEST(OnlineOptimizer, TheNextPassStartsFromTheLastResult) {
   OnlineOptimizer online(s.mapper.options().optimizer, s.mapper.options().resolution);
   online.submit(s.insertUpTo(s.scans.size() / 2, 1));
   const OnlineOptimizerResult first = waitFor(&online);
+  ASSERT_TRUE(first.map.report.converged);
+  EXPECT_EQ(first.scans_revisited_from, 0u) << "the first pass looks at every cell";
+  const std::size_t first_scans = s.mapper.scanStore().scans().size();
   online.submit(s.insertUpTo(s.scans.size(), 2));
   const OnlineOptimizerResult second = waitFor(&online);
   EXPECT_EQ(second.version, 2u);
-  // The same pass started from the first result (where it knows a cell) gives the same map.
+  EXPECT_EQ(second.scans_revisited_from, first_scans) << "only the new scans' cells in the first sweep";
+  // The same pass started from the first result (where it knows a cell), with a full first
+  // sweep, gives the same map and the same log-likelihood.
   const MapSnapshot all = s.mapper.optimizationInput();
   const GridImage start = warmStartFrom(first.map.grid, all.slice);
   const OptimizedMap direct = optimizeScans(all.scans, s.mapper.options().optimizer, 0.05, &start);
   EXPECT_EQ(second.map.grid.cells, inFrameOf(direct.grid, all.slice).cells);
+  EXPECT_EQ(second.map.report.final_log_likelihood, direct.report.final_log_likelihood);
   // ... which is not the pass started from the incremental map alone: the start carried over.
   const OptimizedMap from_incremental = optimizeScans(all.scans, s.mapper.options().optimizer, 0.05, &all.slice);
   EXPECT_NE(second.map.report.initial_log_likelihood, from_incremental.report.initial_log_likelihood);
@@ -104,4 +110,21 @@ TEST(OnlineOptimizer, ANewerInputReplacesAWaitingOneAndForgetDropsTheLastResult)
   EXPECT_LE(results, 3);
   online.forget();
   EXPECT_FALSE(online.take().has_value());
+}
+
+// When the kept scans are not the last input's with more appended (the store thinned or was
+// replaced), the next pass looks at every cell again.
+TEST(OnlineOptimizer, ScansThatChangedBeforeTheEndGetAFullFirstSweep) {
+  Session s;
+  OnlineOptimizer online(s.mapper.options().optimizer, s.mapper.options().resolution);
+  OnlineOptimizerInput input = s.insertUpTo(s.scans.size(), 1);
+  OnlineOptimizerInput thinned = input;
+  thinned.version = 2;
+  for (std::size_t k = 0; k + 1 < thinned.scans.size(); k += 2) thinned.scans[k].ranges[0] += 0.5f;  // not the same scans
+  online.submit(std::move(input));
+  ASSERT_EQ(waitFor(&online).version, 1u);
+  online.submit(std::move(thinned));
+  const OnlineOptimizerResult r = waitFor(&online);
+  EXPECT_EQ(r.version, 2u);
+  EXPECT_EQ(r.scans_revisited_from, 0u);
 }

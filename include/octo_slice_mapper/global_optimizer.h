@@ -64,7 +64,15 @@ class GlobalOptimizer {
   // Sweeps until no single flip improves (or max_sweeps). Within a sweep, cells are tried in order
   // of their gain at the start of the sweep, each re-evaluated just before flipping; a flip is made
   // only for a strictly positive gain (ties don't flip), so the log-likelihood never decreases.
-  OptimizeReport optimize(const ProgressFn& progress = {});
+  // `first_sweep` (one flag per cell): the cells the first sweep looks at (default: all); the
+  // later sweeps look at the cells on beams through a flipped cell, as always.
+  OptimizeReport optimize(const ProgressFn& progress = {}, const std::vector<std::uint8_t>* first_sweep = nullptr);
+  // The cells a first sweep must look at to reach the same map as a full one, when the start is
+  // a converged earlier result over the scans before `first_new_scan` (as build() got them, in
+  // the same order) and `earlier` is that result: a cell's gain depends only on the beams through
+  // it, so only cells the new scans' beams cross, and cells `earlier` does not know (their start
+  // came from elsewhere), can gain from a flip.
+  std::vector<std::uint8_t> cellsToRevisit(std::size_t first_new_scan, const GridImage& earlier) const;
 
   // Change of the total log-likelihood if `cell` flipped: only the beams crossing the cell are
   // visited, using each beam's record of its first occupied cell.
@@ -127,6 +135,7 @@ class GlobalOptimizer {
   std::vector<std::uint32_t> cell_beams_;        // beam ids per cell
   std::vector<std::uint8_t> occupied_;
   std::vector<std::uint8_t> beam_changed_;  // beams through a cell flipped in this sweep
+  std::vector<std::size_t> scan_first_beam_;  // scan s's beams are beams_[scan_first_beam_[s], [s + 1])
   double log_likelihood_ = 0.0;
 };
 

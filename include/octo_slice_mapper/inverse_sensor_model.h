@@ -123,6 +123,7 @@ class InverseSensorModel {
   std::vector<double> behind_;        // B(u) on the same
   std::vector<double> cdf_;           // the standard normal CDF on [-kCdfReach, kCdfReach]
   static constexpr double kCdfReach = 12.0;
+  static constexpr double kNoMassBelow = 6.0;
 };
 
 double logOdds(double p);

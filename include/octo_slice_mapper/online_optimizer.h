@@ -3,6 +3,12 @@
 // result for the mapping side to publish. Submitting never waits for a pass: an input not started
 // yet is replaced by a newer one, at most one pass runs at a time, and each result says which
 // input (version) it answers.
+//
+// Each pass starts from the last one's result. When that pass converged and the new input's
+// scans begin with the last input's (the scan store only appended), the first sweep looks only at
+// the cells the new scans' beams cross and the cells the last result did not know
+// (GlobalOptimizer::cellsToRevisit): the same map as a full first sweep, at a fraction of its cost
+// (Freiburg 079, all scans: one full sweep 1.8 s). Otherwise the pass looks at every cell.
 #pragma once
 
 #include <condition_variable>
@@ -28,6 +34,7 @@ struct OnlineOptimizerResult {
   std::uint64_t version = 0;
   double newest_stamp = 0.0;
   double seconds = 0.0;  // the pass, from taking its input to leaving its result
+  std::size_t scans_revisited_from = 0;  // 0: a full first sweep; else the first new scan
 };
 
 // The start of the next pass: the last result where it knows a cell (the pass goes on from where
@@ -62,6 +69,10 @@ class OnlineOptimizer {
   std::optional<OnlineOptimizerInput> waiting_;
   std::optional<OnlineOptimizerResult> ready_;
   GridImage last_;  // the last pass's result: the next one's start
+  // Of the last pass's input, to tell whether the next one only appended scans to it.
+  std::size_t last_scan_count_ = 0;
+  std::optional<StoredScan> last_first_scan_, last_last_scan_;
+  bool last_converged_ = false;
   std::uint64_t generation_ = 0;  // counts forget()s
   bool running_ = false, stopping_ = false;
   std::thread worker_;  // last: started once the rest is set up

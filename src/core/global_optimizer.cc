@@ -110,6 +110,7 @@ void GlobalOptimizer::build(const std::vector<StoredScan>& scans, const Progress
   // Beams in the x-y plane; the grid covers every traced segment.
   double min_x = 1e300, min_y = 1e300, max_x = -1e300, max_y = -1e300;
   z_max_ = 1e-3;
+  scan_first_beam_.assign(1, 0);
   for (const StoredScan& s : scans) {
     const double range_max = options_.max_range > 0.0 ? std::min<double>(options_.max_range, s.range_max) : s.range_max;
     z_max_ = std::max(z_max_, range_max);
@@ -149,6 +150,7 @@ void GlobalOptimizer::build(const std::vector<StoredScan>& scans, const Progress
       max_y = std::max({max_y, double(b.oy), b.oy + double(b.dy) * b.length + spread});
       beams_.push_back(b);
     }
+    scan_first_beam_.push_back(beams_.size());
   }
   model_ = ForwardSensorModel(options_.model, resolution_, z_max_);
   cell_beams_begin_.assign(1, 0);
@@ -299,7 +301,27 @@ void GlobalOptimizer::flip(std::size_t cell, double delta) {
   }
 }
 
-OptimizeReport GlobalOptimizer::optimize(const ProgressFn& progress) {
+std::vector<std::uint8_t> GlobalOptimizer::cellsToRevisit(std::size_t first_new_scan, const GridImage& earlier) const {
+  std::vector<std::uint8_t> look(cellCount(), 0);
+  const std::size_t scans = scan_first_beam_.size() - 1;
+  for (std::size_t b = scan_first_beam_[std::min(first_new_scan, scans)]; b < beams_.size(); ++b) {
+    walk(beams_[b], [&](std::size_t c) {
+      look[c] = 1;
+      return true;
+    });
+  }
+  for (std::size_t c = 0; c < look.size(); ++c) {
+    if (look[c] || !observed(c)) continue;
+    const Eigen::Vector2d p = centre(c);
+    const int i = static_cast<int>(std::floor((p.x() - earlier.origin_x) / earlier.resolution));
+    const int j = static_cast<int>(std::floor((p.y() - earlier.origin_y) / earlier.resolution));
+    const bool known = i >= 0 && j >= 0 && i < earlier.width && j < earlier.height && earlier.at(i, j) >= 0;
+    if (!known) look[c] = 1;
+  }
+  return look;
+}
+
+OptimizeReport GlobalOptimizer::optimize(const ProgressFn& progress, const std::vector<std::uint8_t>* first_sweep) {
   const auto t0 = std::chrono::steady_clock::now();
   OptimizeReport report;
   report.beams = beams_.size();
@@ -311,7 +333,8 @@ OptimizeReport GlobalOptimizer::optimize(const ProgressFn& progress) {
   report.cells = variables.size();
   report.initial_log_likelihood = log_likelihood_;
   std::vector<std::pair<double, std::size_t>> candidates;
-  std::vector<std::uint8_t> dirty(cellCount(), 1);
+  std::vector<std::uint8_t> dirty =
+      first_sweep && first_sweep->size() == cellCount() ? *first_sweep : std::vector<std::uint8_t>(cellCount(), 1);
   std::fill(beam_changed_.begin(), beam_changed_.end(), 0);
   for (int sweep = 0; sweep < options_.max_sweeps; ++sweep) {
     // A cell's gain depends only on the beams through it: after the first sweep only cells on

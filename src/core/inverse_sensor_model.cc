@@ -142,8 +142,9 @@ float InverseSensorModel::profileUpdate(double reference, double along, double w
   // Deep in the free valley F = 1 and M = 0 to float precision.
   if (u < kPureFreeBelow) return static_cast<float>(w * l_free_);
   double value = lookup(free_profile_, u);
-  if (share > 0.0) {
-    const double k = 0.5 * voxel_size_ / sigma;
+  const double k = 0.5 * voxel_size_ / sigma;
+  // Further than 6 sigma in front of the voxel the peak's mass in it is below 1e-9: not computed.
+  if (share > 0.0 && u + k > -kNoMassBelow) {
     const double mass = k > 0.0 ? normalCdf(u + k) - normalCdf(u - k) : std::exp(-0.5 * u * u);
     value += l_occ_ * share * lookup(behind_, u) * mass;
   }

@@ -3,6 +3,15 @@
 #include <chrono>
 
 namespace octo_slice_mapper {
+namespace {
+
+bool sameScan(const StoredScan& a, const StoredScan& b) {
+  return a.origin == b.origin && a.rotation.coeffs() == b.rotation.coeffs() && a.angle_min == b.angle_min &&
+         a.angle_increment == b.angle_increment && a.range_min == b.range_min && a.range_max == b.range_max &&
+         a.ranges == b.ranges;
+}
+
+}  // namespace
 
 GridImage warmStartFrom(const GridImage& last_result, const GridImage& incremental) {
   if (last_result.width <= 0 || incremental.width <= 0) return incremental;
@@ -55,6 +64,10 @@ bool OnlineOptimizer::busy() const {
 void OnlineOptimizer::forget() {
   std::lock_guard<std::mutex> lock(mutex_);
   last_ = GridImage();
+  last_scan_count_ = 0;
+  last_first_scan_.reset();
+  last_last_scan_.reset();
+  last_converged_ = false;
   ready_.reset();
   ++generation_;
 }
@@ -79,13 +92,28 @@ void OnlineOptimizer::run() {
     running_ = true;
     const GridImage last = last_;
     const std::uint64_t generation = generation_;
+    // The last input's scans still lead this one's: the store only appended to them.
+    const bool appended = last_converged_ && last_scan_count_ > 0 && input.scans.size() >= last_scan_count_ &&
+                          sameScan(input.scans.front(), *last_first_scan_) &&
+                          sameScan(input.scans[last_scan_count_ - 1], *last_last_scan_);
+    const std::size_t revisit_from = appended ? last_scan_count_ : 0;
     lock.unlock();
 
     const auto t0 = std::chrono::steady_clock::now();
-    const GridImage start = warmStartFrom(last, input.incremental);
+    GlobalOptimizer optimizer(options_, resolution_);
+    optimizer.build(input.scans);
+    optimizer.startFrom(warmStartFrom(last, input.incremental));
+    const double build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     OnlineOptimizerResult result;
-    result.map = optimizeScans(input.scans, options_, resolution_, &start);
-    result.map.grid = inFrameOf(result.map.grid, input.incremental);
+    if (revisit_from > 0) {
+      const std::vector<std::uint8_t> look = optimizer.cellsToRevisit(revisit_from, last);
+      result.map.report = optimizer.optimize({}, &look);
+    } else {
+      result.map.report = optimizer.optimize();
+    }
+    result.map.report.build_seconds = build_seconds;
+    result.map.grid = inFrameOf(cropToKnown(optimizer.result()), input.incremental);
+    result.scans_revisited_from = revisit_from;
     result.version = input.version;
     result.newest_stamp = input.newest_stamp;
     result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -95,6 +123,9 @@ void OnlineOptimizer::run() {
     // After a forget() during the pass, its result belongs to the map before: dropped.
     if (generation == generation_) {
       last_ = result.map.grid;
+      last_scan_count_ = input.scans.size();
+      if (!input.scans.empty()) last_first_scan_ = input.scans.front(), last_last_scan_ = input.scans.back();
+      last_converged_ = result.map.report.converged;
       ready_ = std::move(result);
     }
   }
