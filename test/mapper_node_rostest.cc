@@ -301,6 +301,45 @@ TEST_F(MapperNodeTest, CloudsWaitingForTfTimeOutToo) {
       << "unknown_frame " << diagnostic("skipped_unknown_frame") << " (before " << unknown_before << ")";
 }
 
+// Clouds whose layout declares more than they hold are skipped and counted, and the node maps on
+// (issue 19: the first one crashed it inside pcl::fromROSMsg); a well-formed cloud is inserted.
+TEST_F(MapperNodeTest, MalformedCloudsAreCountedAndTheNodeMapsOn) {
+  ros::Publisher cloud_pub = nh_.advertise<sensor_msgs::PointCloud2>("cloud_in", 5);
+  ASSERT_TRUE(waitFor([&cloud_pub] { return cloud_pub.getNumSubscribers() >= 1; }, 20.0));
+  ASSERT_TRUE(waitFor([this] { return diagnostic("clouds_received") >= 0; }, 10.0)) << "no /diagnostics";
+  const double received = diagnostic("clouds_received"), inserted = diagnostic("clouds_inserted");
+  const double short_before = std::max(0.0, diagnostic("skipped_cloud_short_data"));
+  const double layout_before = std::max(0.0, diagnostic("skipped_cloud_bad_layout"));
+  sensor_msgs::PointCloud2 good;
+  good.header.frame_id = "laser";
+  sensor_msgs::PointCloud2Modifier modifier(good);
+  modifier.setPointCloud2FieldsByString(1, "xyz");
+  modifier.resize(3);
+  sensor_msgs::PointCloud2Iterator<float> x(good, "x");
+  for (int i = 0; i < 3; ++i, ++x) x[0] = 1.0f + 0.1f * i, x[1] = 0.5f, x[2] = 0.0f;
+  sensor_msgs::PointCloud2 crash = good;
+  crash.width = 2000000;  // 2 000 000 points declared ...
+  crash.row_step = crash.width * crash.point_step;
+  crash.data.resize(120);  // ... 120 bytes sent
+  sensor_msgs::PointCloud2 narrow = good;
+  narrow.point_step = 4;  // smaller than x, y and z
+  narrow.row_step = 12;
+  for (sensor_msgs::PointCloud2* c : {&crash, &narrow, &good}) {
+    c->header.stamp = ros::Time::now();
+    cloud_pub.publish(*c);
+    ros::WallDuration(0.05).sleep();
+  }
+  EXPECT_TRUE(waitFor([&] {
+    return diagnostic("skipped_cloud_short_data") >= short_before + 1 &&
+           diagnostic("skipped_cloud_bad_layout") >= layout_before + 1 && diagnostic("clouds_inserted") >= inserted + 1;
+  }, 20.0)) << "short_data " << diagnostic("skipped_cloud_short_data") << ", bad_layout "
+            << diagnostic("skipped_cloud_bad_layout") << ", inserted " << diagnostic("clouds_inserted");
+  EXPECT_GE(diagnostic("clouds_received"), received + 3);
+  // Still mapping.
+  scan_pub_.publish(scan([](double a) { return wallAt(kWallAhead, a); }));
+  EXPECT_TRUE(waitFor([this] { return cellAt(2.11, 0.0) > 50; }, 20.0));
+}
+
 TEST_F(MapperNodeTest, TimeJumpingBackIsDetectedAndMappingContinues) {
   scan_pub_.publish(scan([](double a) { return wallAt(kWallAhead, a); }));
   ros::WallDuration(0.2).sleep();

@@ -17,9 +17,9 @@ namespace octo_slice_mapper {
 struct MapperOptions {
   double resolution = 0.05;  // m, octree leaf size
   // OctoMap clamping bounds (probabilities): a voxel never gets surer than this, so a person who
-  // walked away is cleared again (from 0.997, after 14 beams through it at p_free 0.4). OctoMap's
-  // own 0.12 / 0.97 forget a wall after three grazing beams, so walls seen at a grazing angle
-  // flickered between occupied and free (issue 18).
+  // walked away is cleared again (from 0.997, 13 beams through it at p_free 0.4 take it below
+  // map_server's 0.65). With OctoMap's own 0.12 / 0.97 and p_free 0.35, 5 grazing beams did that
+  // to any wall, so walls seen at a grazing angle flickered between occupied and free (issue 18).
   double clamp_min = 0.003;
   double clamp_max = 0.997;
   InsertOptions insert;

@@ -29,6 +29,8 @@ diagnostic_msgs::DiagnosticArray toDiagnostics(const NodeCounters& c, std::uint6
   add("scans_received", std::to_string(c.scans_received));
   add("scans_inserted", std::to_string(c.scans_inserted));
   add("scans_skipped", std::to_string(c.skippedTotal()));
+  add("clouds_received", std::to_string(c.clouds_received));
+  add("clouds_inserted", std::to_string(c.clouds_inserted));
   for (const auto& kv : c.skipped) add("skipped_" + kv.first, std::to_string(kv.second));
   add("waiting_for_tf", std::to_string(c.waiting_for_tf));
   add("time_jumps_back", std::to_string(c.time_jumps_back));

@@ -1,8 +1,5 @@
 #include "ros/mapper_node.h"
 
-#include <pcl/point_cloud.h>
-#include <pcl/point_types.h>
-#include <pcl_conversions/pcl_conversions.h>
 #include <tf2_eigen/tf2_eigen.h>
 
 #include <boost/bind/bind.hpp>
@@ -13,6 +10,7 @@
 #include "octo_slice_mapper/save_path.h"
 #include "ros/laser_scan_conversion.h"
 #include "ros/map_conversion.h"
+#include "ros/point_cloud_conversion.h"
 
 namespace octo_slice_mapper {
 namespace ros_adapter {
@@ -89,7 +87,11 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
 
   cloud_sub_.subscribe(nh_, "cloud_in", 5);
   cloud_sub_.registerCallback(boost::function<void(const sensor_msgs::PointCloud2::ConstPtr&)>(
-      [this](const sensor_msgs::PointCloud2::ConstPtr& msg) { waiting_clouds_.arrived(msg, ros::WallTime::now()); }));
+      [this](const sensor_msgs::PointCloud2::ConstPtr& msg) {
+        waiting_clouds_.arrived(msg, ros::WallTime::now());
+        std::lock_guard<std::mutex> lock(mutex_);
+        counters_.clouds_received++;
+      }));
   cloud_filter_ = std::make_unique<tf2_ros::MessageFilter<sensor_msgs::PointCloud2>>(cloud_sub_, tf_buffer_,
                                                                                     options_.frame_id, 5, nh_);
   cloud_filter_->registerCallback(boost::function<void(const sensor_msgs::PointCloud2::ConstPtr&)>(
@@ -118,7 +120,8 @@ void MapperNode::skip(const std::string& reason, const std::string& message) {
     std::lock_guard<std::mutex> lock(mutex_);
     counters_.skipped[reason]++;
   }
-  ROS_WARN_THROTTLE(5.0, "skipping scan (%s): %s", reason.c_str(), message.c_str());
+  const char* what = reason.rfind("cloud_", 0) == 0 ? "point cloud" : "scan";
+  ROS_WARN_THROTTLE(5.0, "skipping %s (%s): %s", what, reason.c_str(), message.c_str());
 }
 
 void MapperNode::expireWaitingScans(const ros::WallTimerEvent&) {
@@ -274,12 +277,15 @@ void MapperNode::insertScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
 void MapperNode::insertCloud(const sensor_msgs::PointCloud2::ConstPtr& msg) {
   Eigen::Isometry3d pose;
   if (!sensorPose(msg->header, &pose)) return;
-  pcl::PointCloud<pcl::PointXYZ> cloud;
-  pcl::fromROSMsg(*msg, cloud);
+  // Checked before a single byte is read: a layout that declares more than the message holds
+  // must not reach a converter that trusts it.
+  const ScanRejection rejection = checkCloudLayout(*msg);
+  if (rejection.rejected()) {
+    skip(rejection.key, rejection.message);
+    return;
+  }
   std::vector<Eigen::Vector3f> points;
-  points.reserve(cloud.size());
-  const Eigen::Isometry3f to_map = pose.cast<float>();
-  for (const pcl::PointXYZ& p : cloud) points.push_back(to_map * p.getVector3fMap());
+  cloudPointsInMap(*msg, pose.cast<float>(), &points);
   const ros::WallTime start = ros::WallTime::now();
   InsertResult result;
   {
@@ -289,6 +295,10 @@ void MapperNode::insertCloud(const sensor_msgs::PointCloud2::ConstPtr& msg) {
   if (!result.ok()) {
     skip("invalid_cloud", result.error);
     return;
+  }
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    counters_.clouds_inserted++;
   }
   afterInsert(result, (ros::WallTime::now() - start).toSec(), /*from_scan=*/false);
 }

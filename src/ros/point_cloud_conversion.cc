@@ -1,0 +1,99 @@
+#include "ros/point_cloud_conversion.h"
+
+#include <cstring>
+#include <limits>
+
+namespace octo_slice_mapper {
+namespace ros_adapter {
+namespace {
+
+const sensor_msgs::PointField* fieldNamed(const sensor_msgs::PointCloud2& msg, const char* name) {
+  for (const sensor_msgs::PointField& f : msg.fields) {
+    if (f.name == name) return &f;
+  }
+  return nullptr;
+}
+
+std::size_t bytesOf(std::uint8_t datatype) {
+  switch (datatype) {
+    case sensor_msgs::PointField::FLOAT32:
+      return 4;
+    case sensor_msgs::PointField::FLOAT64:
+      return 8;
+    default:
+      return 0;  // not a coordinate type
+  }
+}
+
+float coordinate(const std::uint8_t* point, const sensor_msgs::PointField& f) {
+  if (f.datatype == sensor_msgs::PointField::FLOAT64) {
+    double v;
+    std::memcpy(&v, point + f.offset, sizeof v);
+    return static_cast<float>(v);
+  }
+  float v;
+  std::memcpy(&v, point + f.offset, sizeof v);
+  return v;
+}
+
+bool hostIsBigEndian() {
+  const std::uint16_t one = 1;
+  std::uint8_t first;
+  std::memcpy(&first, &one, 1);
+  return first == 0;
+}
+
+}  // namespace
+
+ScanRejection checkCloudLayout(const sensor_msgs::PointCloud2& msg) {
+  for (const char* name : {"x", "y", "z"}) {
+    const sensor_msgs::PointField* f = fieldNamed(msg, name);
+    if (!f) return {"cloud_bad_fields", std::string("no '") + name + "' field"};
+    const std::size_t size = bytesOf(f->datatype);
+    if (size == 0 || f->count < 1) {
+      return {"cloud_bad_fields", std::string("field '") + name + "' is not a FLOAT32 or FLOAT64 scalar"};
+    }
+    if (std::size_t(f->offset) + size > msg.point_step) {
+      return {"cloud_bad_layout", std::string("field '") + name + "' (offset " + std::to_string(f->offset) +
+                                      ") does not fit in point_step " + std::to_string(msg.point_step)};
+    }
+  }
+  if (bool(msg.is_bigendian) != hostIsBigEndian()) return {"cloud_big_endian", "byte order differs from this host's"};
+  const std::uint64_t points = std::uint64_t(msg.width) * msg.height;
+  if (points == 0) return {"cloud_empty", "no points (width " + std::to_string(msg.width) + ", height " +
+                                              std::to_string(msg.height) + ")"};
+  if (points > kMaxPointsPerCloud) {
+    return {"cloud_too_large", std::to_string(points) + " points (at most " + std::to_string(kMaxPointsPerCloud) + ")"};
+  }
+  if (std::uint64_t(msg.row_step) < std::uint64_t(msg.width) * msg.point_step) {
+    return {"cloud_bad_layout", "row_step " + std::to_string(msg.row_step) + " is shorter than width x point_step " +
+                                    std::to_string(std::uint64_t(msg.width) * msg.point_step)};
+  }
+  const std::uint64_t needed = std::uint64_t(msg.row_step) * msg.height;
+  if (msg.data.size() < needed) {
+    return {"cloud_short_data", std::to_string(msg.data.size()) + " bytes of data for " + std::to_string(points) +
+                                    " points declared (" + std::to_string(needed) + " bytes)"};
+  }
+  return {};
+}
+
+void cloudPointsInMap(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry3f& to_map,
+                      std::vector<Eigen::Vector3f>* points) {
+  const sensor_msgs::PointField& fx = *fieldNamed(msg, "x");
+  const sensor_msgs::PointField& fy = *fieldNamed(msg, "y");
+  const sensor_msgs::PointField& fz = *fieldNamed(msg, "z");
+  points->clear();
+  points->reserve(std::size_t(msg.width) * msg.height);
+  for (std::uint32_t row = 0; row < msg.height; ++row) {
+    const std::uint8_t* p = msg.data.data() + std::size_t(row) * msg.row_step;
+    for (std::uint32_t col = 0; col < msg.width; ++col, p += msg.point_step) {
+      const Eigen::Vector3f v(coordinate(p, fx), coordinate(p, fy), coordinate(p, fz));
+      // A non-finite point stays so (the transform would mix NaN into the other coordinates anyway).
+      points->push_back(v.allFinite() ? Eigen::Vector3f(to_map * v)
+                                      : Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
+    }
+  }
+}
+
+}  // namespace ros_adapter
+}  // namespace octo_slice_mapper

@@ -1,0 +1,31 @@
+// sensor_msgs/PointCloud2 -> points in the map frame, after checking that the message's layout
+// holds what it declares (issue 19: a cloud with less data than width x height x point_step
+// crashed the node inside pcl::fromROSMsg; one with point_step 4 or without z went into the map).
+#pragma once
+
+#include <sensor_msgs/PointCloud2.h>
+
+#include <Eigen/Geometry>
+#include <vector>
+
+#include "ros/laser_scan_conversion.h"
+
+namespace octo_slice_mapper {
+namespace ros_adapter {
+
+constexpr std::size_t kMaxPointsPerCloud = 5000000;
+
+// Checks the layout: x, y and z fields of FLOAT32 or FLOAT64, each inside point_step, row_step
+// at least width x point_step, data at least row_step x height, host byte order, a sane size.
+// A refusal names its diagnostics key (cloud_bad_fields, cloud_bad_layout, cloud_short_data,
+// cloud_big_endian, cloud_empty, cloud_too_large).
+ScanRejection checkCloudLayout(const sensor_msgs::PointCloud2& msg);
+
+// The cloud's points through `to_map` (the sensor frame's pose in the map frame), in the
+// message's order; points with a non-finite coordinate stay non-finite, for the core to count.
+// The layout must have passed checkCloudLayout.
+void cloudPointsInMap(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry3f& to_map,
+                      std::vector<Eigen::Vector3f>* points);
+
+}  // namespace ros_adapter
+}  // namespace octo_slice_mapper

@@ -1,0 +1,93 @@
+// PointCloud2 layouts a sender can get wrong are refused before any byte is read (issue 19), and
+// a well-formed cloud's points come out in the map frame, NaNs kept for the core to count.
+#include "ros/point_cloud_conversion.h"
+
+#include <gtest/gtest.h>
+#include <sensor_msgs/point_cloud2_iterator.h>
+
+#include <cmath>
+
+using namespace octo_slice_mapper::ros_adapter;
+
+namespace {
+
+sensor_msgs::PointCloud2 xyzCloud(std::uint32_t width, std::uint32_t height) {
+  sensor_msgs::PointCloud2 cloud;
+  sensor_msgs::PointCloud2Modifier modifier(cloud);
+  modifier.setPointCloud2FieldsByString(1, "xyz");
+  cloud.width = width;
+  cloud.height = height;
+  cloud.point_step = 16;  // x, y, z and the padding setPointCloud2FieldsByString leaves
+  cloud.row_step = width * cloud.point_step;
+  cloud.data.assign(std::size_t(cloud.row_step) * height, 0);
+  return cloud;
+}
+
+}  // namespace
+
+TEST(PointCloudConversion, AWellFormedCloudPassesAndItsPointsReachTheMapFrame) {
+  sensor_msgs::PointCloud2 cloud = xyzCloud(2, 2);
+  sensor_msgs::PointCloud2Iterator<float> x(cloud, "x"), y(cloud, "y"), z(cloud, "z");
+  const float values[4][3] = {{1, 2, 3}, {NAN, 0, 0}, {4, 5, 6}, {0, INFINITY, 0}};
+  for (int k = 0; k < 4; ++k, ++x, ++y, ++z) *x = values[k][0], *y = values[k][1], *z = values[k][2];
+  ASSERT_FALSE(checkCloudLayout(cloud).rejected());
+  Eigen::Isometry3f to_map = Eigen::Isometry3f::Identity();
+  to_map.translation() = Eigen::Vector3f(10, 0, 0);
+  std::vector<Eigen::Vector3f> points;
+  cloudPointsInMap(cloud, to_map, &points);
+  ASSERT_EQ(points.size(), 4u);
+  EXPECT_TRUE(points[0].isApprox(Eigen::Vector3f(11, 2, 3)));
+  EXPECT_FALSE(points[1].allFinite());
+  EXPECT_TRUE(points[2].isApprox(Eigen::Vector3f(14, 5, 6)));
+  EXPECT_FALSE(points[3].allFinite());
+}
+
+// The cloud that crashed the node inside pcl::fromROSMsg: 2 000 000 points declared, 120 bytes sent.
+TEST(PointCloudConversion, LessDataThanDeclaredIsRefused) {
+  sensor_msgs::PointCloud2 cloud = xyzCloud(2000000, 1);
+  cloud.data.resize(120);
+  EXPECT_EQ(checkCloudLayout(cloud).key, "cloud_short_data");
+  cloud = xyzCloud(1000, 1);
+  cloud.data.resize(10 * cloud.point_step);
+  EXPECT_EQ(checkCloudLayout(cloud).key, "cloud_short_data") << "1000 points declared, data for 10";
+}
+
+TEST(PointCloudConversion, FieldsMustFitAndBeCoordinates) {
+  sensor_msgs::PointCloud2 cloud = xyzCloud(3, 1);
+  cloud.point_step = 4;  // smaller than x, y and z
+  cloud.row_step = 12;
+  EXPECT_EQ(checkCloudLayout(cloud).key, "cloud_bad_layout");
+  cloud = xyzCloud(3, 1);
+  cloud.fields.pop_back();  // no z
+  EXPECT_EQ(checkCloudLayout(cloud).key, "cloud_bad_fields");
+  cloud = xyzCloud(3, 1);
+  cloud.fields[1].datatype = sensor_msgs::PointField::UINT8;
+  EXPECT_EQ(checkCloudLayout(cloud).key, "cloud_bad_fields");
+  cloud = xyzCloud(3, 1);
+  cloud.row_step = 8;  // shorter than one row of points
+  EXPECT_EQ(checkCloudLayout(cloud).key, "cloud_bad_layout");
+  cloud = xyzCloud(3, 1);
+  cloud.is_bigendian = true;
+  EXPECT_EQ(checkCloudLayout(cloud).key, "cloud_big_endian");
+  cloud = xyzCloud(0, 4000000);  // no points, but four million rows to walk
+  EXPECT_EQ(checkCloudLayout(cloud).key, "cloud_empty");
+  cloud = xyzCloud(1, 1);
+  cloud.width = 100000;
+  cloud.height = 100000;  // 10^10 points: the size alone is refused, whatever the data
+  EXPECT_EQ(checkCloudLayout(cloud).key, "cloud_too_large");
+}
+
+TEST(PointCloudConversion, Float64CoordinatesAreRead) {
+  sensor_msgs::PointCloud2 cloud;
+  sensor_msgs::PointCloud2Modifier modifier(cloud);
+  modifier.setPointCloud2Fields(3, "x", 1, sensor_msgs::PointField::FLOAT64, "y", 1, sensor_msgs::PointField::FLOAT64,
+                                "z", 1, sensor_msgs::PointField::FLOAT64);
+  modifier.resize(1);
+  sensor_msgs::PointCloud2Iterator<double> x(cloud, "x"), y(cloud, "y"), z(cloud, "z");
+  *x = 1.5, *y = -2.0, *z = 0.25;
+  ASSERT_FALSE(checkCloudLayout(cloud).rejected());
+  std::vector<Eigen::Vector3f> points;
+  cloudPointsInMap(cloud, Eigen::Isometry3f::Identity(), &points);
+  ASSERT_EQ(points.size(), 1u);
+  EXPECT_TRUE(points[0].isApprox(Eigen::Vector3f(1.5f, -2.0f, 0.25f)));
+}
