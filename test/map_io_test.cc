@@ -1,6 +1,9 @@
 #include "octo_slice_mapper/map_io.h"
 
 #include <gtest/gtest.h>
+
+#include <cstring>
+#include <limits>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -225,6 +228,25 @@ TEST_F(MapIoTest, CorruptOrWrongFilesAreRefusedWithAReason) {
     EXPECT_EQ(loadTree(dir_ + "/" + name, &error), nullptr) << name;
     EXPECT_FALSE(error.empty()) << name;
   }
+  // A truncated .ot: OctoMap's reader returns a tree from what is there (issue 19), it is refused.
+  ASSERT_TRUE(saveFullTree(mapper_.tree(), dir_ + "/good.ot", &error));
+  ASSERT_TRUE(readFile(dir_ + "/good.ot", &bytes, &error));
+  ASSERT_NE(loadTree(dir_ + "/good.ot", &error), nullptr) << error;
+  for (double share : {0.5, 0.9, 0.999}) {
+    const std::string name = dir_ + "/truncated_" + std::to_string(share) + ".ot";
+    ASSERT_TRUE(writeFileAtomically(name, bytes.substr(0, std::size_t(share * bytes.size())), &error));
+    error.clear();
+    EXPECT_EQ(loadTree(name, &error), nullptr) << share;
+    EXPECT_NE(error.find("truncated"), std::string::npos) << error;
+  }
+  // A node's value bit-flipped to NaN (the first node's float follows the header's "data" line).
+  std::string flipped = bytes;
+  const std::size_t data = flipped.find("\ndata\n") + 6;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  std::memcpy(&flipped[data], &nan, sizeof nan);
+  ASSERT_TRUE(writeFileAtomically(dir_ + "/nan.ot", flipped, &error));
+  EXPECT_EQ(loadTree(dir_ + "/nan.ot", &error), nullptr);
+  EXPECT_NE(error.find("finite"), std::string::npos) << error;
   Mapper keeps;
   ASSERT_TRUE(keeps.insert(test_support::makeScan(test_support::laserPoseOnRobot(0, 0, 0), 0.0f, 0.01f, {1.0f})).ok());
   const auto before = leafLogOdds(keeps.tree());

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <sstream>
 #include <utility>
@@ -78,6 +79,18 @@ std::unique_ptr<octomap::OcTree> loadTree(const std::string& path, std::string* 
     return tree;
   }
   if (startsWith(bytes, kFullHeader)) {
+    // OctoMap's reader builds a tree from whatever a truncated or damaged file holds (issue 19: half
+    // a .ot gave 2 billion known cells and voxels at z = 327 m): the header's node count must be
+    // what was read, the data must not have run out, and every value must be a finite log-odds.
+    std::size_t declared = 0;
+    const std::size_t size_at = bytes.find("\nsize ");
+    const bool has_size = size_at != std::string::npos && size_at < 512 &&
+                          std::sscanf(bytes.c_str() + size_at + 6, "%zu", &declared) == 1;
+    // Each node takes at least 5 bytes (its float and its child bits).
+    if (!has_size || declared > bytes.size() / 5 + 1) {
+      *error = path + ": corrupt OctoMap (.ot) file: no node count, or more nodes than the file can hold";
+      return nullptr;
+    }
     std::unique_ptr<octomap::AbstractOcTree> abstract(octomap::AbstractOcTree::read(in));
     if (!abstract) {
       *error = path + ": corrupt or truncated OctoMap (.ot) file";
@@ -87,6 +100,17 @@ std::unique_ptr<octomap::OcTree> loadTree(const std::string& path, std::string* 
     if (!tree) {
       *error = path + ": holds a " + abstract->getTreeType() + ", not an OcTree";
       return nullptr;
+    }
+    if (in.fail() || tree->size() != declared) {
+      *error = path + ": truncated or corrupt OctoMap (.ot) file: " + std::to_string(declared) + " nodes declared, " +
+               std::to_string(tree->size()) + " read" + (in.fail() ? " before the data ran out" : "");
+      return nullptr;
+    }
+    for (auto it = tree->begin_tree(), end = tree->end_tree(); it != end; ++it) {
+      if (!std::isfinite(it->getLogOdds())) {
+        *error = path + ": corrupt OctoMap (.ot) file: a node's log-odds is not a finite number";
+        return nullptr;
+      }
     }
     abstract.release();
     return std::unique_ptr<octomap::OcTree>(tree);
