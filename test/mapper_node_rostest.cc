@@ -340,6 +340,20 @@ TEST_F(MapperNodeTest, MalformedCloudsAreCountedAndTheNodeMapsOn) {
   EXPECT_TRUE(waitFor([this] { return cellAt(2.11, 0.0) > 50; }, 20.0));
 }
 
+// A scan stamped 0 would be placed at the latest pose (tf2 reads 0 as "latest"): it is skipped
+// as zero_stamp instead, and not mistaken for a time jump (issue 19).
+TEST_F(MapperNodeTest, AScanStampedZeroIsSkippedNotPlacedAtTheLatestPose) {
+  ASSERT_TRUE(waitFor([this] { return diagnostic("scans_received") >= 0; }, 10.0)) << "no /diagnostics";
+  const double zero_before = std::max(0.0, diagnostic("skipped_zero_stamp"));
+  const double jumps_before = diagnostic("time_jumps_back");
+  auto zero = scan([](double a) { return wallAt(1.0, a); });
+  zero.header.stamp = ros::Time(0);
+  scan_pub_.publish(zero);
+  EXPECT_TRUE(waitFor([&] { return diagnostic("skipped_zero_stamp") >= zero_before + 1; }, 20.0))
+      << "zero_stamp " << diagnostic("skipped_zero_stamp");
+  EXPECT_EQ(diagnostic("time_jumps_back"), jumps_before);
+}
+
 TEST_F(MapperNodeTest, TimeJumpingBackIsDetectedAndMappingContinues) {
   scan_pub_.publish(scan([](double a) { return wallAt(kWallAhead, a); }));
   ros::WallDuration(0.2).sleep();

@@ -116,12 +116,25 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
 }
 
 void MapperNode::skip(const std::string& reason, const std::string& message) {
+  bool log = false;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     counters_.skipped[reason]++;
+    // One throttle per reason: a flood of one kind must not hide the first of another.
+    const ros::WallTime now = ros::WallTime::now();
+    auto [last, first] = last_logged_skip_.emplace(reason, now);
+    log = first || (now - last->second).toSec() >= 5.0;
+    if (log) last->second = now;
   }
   const char* what = reason.rfind("cloud_", 0) == 0 ? "point cloud" : "scan";
-  ROS_WARN_THROTTLE(5.0, "skipping %s (%s): %s", what, reason.c_str(), message.c_str());
+  if (log) ROS_WARN("skipping %s (%s): %s", what, reason.c_str(), message.c_str());
+}
+
+bool MapperNode::stampedZero(const std_msgs::Header& header) {
+  if (!header.stamp.isZero()) return false;
+  // tf2 reads time 0 as "the latest transform": inserted, it would land at the newest pose.
+  skip("zero_stamp", "stamped 0 (frame '" + header.frame_id + "'): its pose is unknown");
+  return true;
 }
 
 void MapperNode::expireWaitingScans(const ros::WallTimerEvent&) {
@@ -237,6 +250,7 @@ void MapperNode::checkTimeJump(const ros::Time& stamp) {
 }
 
 void MapperNode::insertScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
+  if (stampedZero(msg->header)) return;
   Eigen::Isometry3d pose;
   if (!sensorPose(msg->header, &pose)) return;
   checkTimeJump(msg->header.stamp);
@@ -275,6 +289,7 @@ void MapperNode::insertScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
 }
 
 void MapperNode::insertCloud(const sensor_msgs::PointCloud2::ConstPtr& msg) {
+  if (stampedZero(msg->header)) return;
   Eigen::Isometry3d pose;
   if (!sensorPose(msg->header, &pose)) return;
   // Checked before a single byte is read: a layout that declares more than the message holds

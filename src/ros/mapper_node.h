@@ -55,6 +55,8 @@ class MapperNode {
   void onTransformFailure(const boost::shared_ptr<const M>& msg, tf2_ros::FilterFailureReason reason);
   bool sensorPose(const std_msgs::Header& header, Eigen::Isometry3d* pose);
   void skip(const std::string& reason, const std::string& message);
+  // A message stamped 0 is skipped as zero_stamp (true).
+  bool stampedZero(const std_msgs::Header& header);
   void afterInsert(const InsertResult& result, double seconds, bool from_scan);
   void publish(const ros::TimerEvent&);
   void publishFullMap(const ros::Time& stamp, bool with_markers);
@@ -121,6 +123,7 @@ class MapperNode {
   std::uint64_t last_saved_version_ = 0;
   std::uint64_t published_geometry_ = ~std::uint64_t{0};  // slice geometry of the last full map sent
   NodeCounters counters_;  // guarded by mutex_; map sizes filled in when reported
+  std::map<std::string, ros::WallTime> last_logged_skip_;  // per skip reason; guarded by mutex_
   std::uint64_t skipped_at_last_report_ = 0;
   ros::Time last_scan_stamp_;
   double insert_seconds_ = 0.0;
