@@ -47,3 +47,14 @@ TEST_F(SavePathTest, AllowAnyPathLiftsTheFence) {
   ASSERT_TRUE(resolveSavePrefix(maps_, root_ + "/elsewhere/x", true, &resolved, &error)) << error;
   EXPECT_EQ(resolved, root_ + "/elsewhere/x");
 }
+
+// A newline in a prefix made a .yaml no YAML parser reads (issue 19): control characters are refused.
+TEST_F(SavePathTest, ControlCharactersAreRefused) {
+  std::string resolved, error;
+  for (const char* prefix : {"run\n1", "run\r", "tab\there", "bell\a"}) {
+    EXPECT_FALSE(resolveSavePrefix(maps_, prefix, false, &resolved, &error)) << prefix;
+    EXPECT_NE(error.find("control character"), std::string::npos) << error;
+  }
+  EXPECT_FALSE(resolveSavePrefix(maps_, "x\x7f", true, &resolved, &error));
+  EXPECT_TRUE(resolveSavePrefix(maps_, "ünïcode run", false, &resolved, &error)) << error;
+}

@@ -202,7 +202,8 @@ TEST(ScanInserter, CoordinatesOutsideTheTreeAreDroppedSafely) {
   ScanInserter inserter(&tree, InsertOptions{});
   Eigen::Isometry3d far_away = Eigen::Isometry3d::Identity();
   far_away.translation() = Eigen::Vector3d(-1e308, 0.0, 0.26);  // finite, so the header check passes
-  EXPECT_TRUE(inserter.insert(makeScan(far_away, -1.0f, 0.01f, std::vector<float>(201, 2.0f))).ok());
+  EXPECT_FALSE(inserter.insert(makeScan(far_away, -1.0f, 0.01f, std::vector<float>(201, 2.0f))).ok())
+      << "refused with a reason (issue 19)";
   inserter.flush();
   EXPECT_EQ(tree.size(), 0u) << "a sensor outside the tree adds nothing";
   // A reading of 3e38 m under range_max = FLT_MAX: that beam leaves the tree and is dropped; its
@@ -281,4 +282,20 @@ TEST(ScanInserter, ABeamGrazingAWallClearsOnlyTheVoxelsItCrosses) {
   const auto* crossed = nodeAt(tree, 1.5, 0.045, 0.275);
   ASSERT_NE(crossed, nullptr);
   EXPECT_NEAR(crossed->getLogOdds(), inserter.model().logOddsFree(), 1e-4) << "the voxels it crosses are free";
+}
+
+// A sensor the octree cannot hold (a CARMEN pose of 1e30, issue 19) is refused with a reason,
+// not counted as inserted with nothing inserted.
+TEST(ScanInserter, AnOriginOutsideTheOctreeIsRefused) {
+  octomap::OcTree tree(0.05);
+  ScanInserter inserter(&tree, InsertOptions{});
+  for (double x : {1e30, 2000.0, -1700.0}) {
+    const InsertResult r = inserter.insert(makeScan(laserPoseOnRobot(x, 0, 0), 0.0f, 0.01f, {1.0f, 2.0f}));
+    EXPECT_FALSE(r.ok()) << x;
+    EXPECT_NE(r.error.find("outside"), std::string::npos) << r.error;
+  }
+  EXPECT_FALSE(inserter.insertPoints(Eigen::Vector3d(0, 5000, 0), {Eigen::Vector3f(1, 1, 1)}, 0.01).ok());
+  inserter.flush();
+  EXPECT_EQ(tree.size(), 0u);
+  EXPECT_TRUE(inserter.insert(makeScan(laserPoseOnRobot(1600, 0, 0), 0.0f, 0.01f, {1.0f})).ok()) << "inside: +-1638 m";
 }

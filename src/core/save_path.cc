@@ -21,6 +21,13 @@ bool resolveSavePrefix(const std::string& maps_dir, const std::string& requested
     *error = "empty path prefix";
     return false;
   }
+  for (unsigned char c : requested) {
+    // A newline would end up in the .yaml's image line, which no YAML reader then parses.
+    if (c < 0x20 || c == 0x7F) {
+      *error = "refused: the prefix holds a control character (code " + std::to_string(int(c)) + ")";
+      return false;
+    }
+  }
   const std::string candidate = requested[0] == '/' ? requested : maps_dir + "/" + requested;
   const auto slash = candidate.find_last_of('/');
   const std::string folder = candidate.substr(0, slash == 0 ? 1 : slash);

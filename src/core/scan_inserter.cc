@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <unordered_map>
 
@@ -129,9 +130,27 @@ std::vector<Beam> ScanInserter::beamsOf(const Scan& scan, ReadingCounts* counts)
   return beams;
 }
 
+namespace {
+
+// Empty, or why the octree cannot hold a sensor at `origin` (issue 19: a CARMEN pose of 1e30 was
+// counted as inserted, with nothing inserted).
+std::string originError(const octomap::OcTree& tree, const Eigen::Vector3d& origin) {
+  octomap::OcTreeKey key;
+  if (!origin.allFinite()) return "sensor origin is not finite";
+  if (coordToKeySafe(tree, origin.x(), origin.y(), origin.z(), &key)) return "";
+  const double reach = tree.getResolution() * double(1 << (tree.getTreeDepth() - 1));
+  char text[160];
+  std::snprintf(text, sizeof text, "sensor origin (%.6g, %.6g, %.6g) is outside what the octree holds (+-%.0f m)",
+                origin.x(), origin.y(), origin.z(), reach);
+  return text;
+}
+
+}  // namespace
+
 InsertResult ScanInserter::insert(const Scan& scan) {
   InsertResult result;
   result.error = validateScanHeader(scan);
+  if (result.ok()) result.error = originError(*tree_, scan.sensor_pose.translation());
   if (!result.ok()) return result;
   const std::vector<Beam> beams = beamsOf(scan, &result.readings);
   const double half_angle = model_.halfAngleFor(scan.angle_increment);
@@ -145,10 +164,8 @@ InsertResult ScanInserter::insert(const Scan& scan) {
 InsertResult ScanInserter::insertPoints(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points,
                                         double half_angle) {
   InsertResult result;
-  if (!origin.allFinite()) {
-    result.error = "sensor origin is not finite";
-    return result;
-  }
+  result.error = originError(*tree_, origin);
+  if (!result.ok()) return result;
   std::vector<Beam> beams;
   beams.reserve(points.size());
   const double max_range = options_.max_range > 0.0 ? options_.max_range : 1e30;

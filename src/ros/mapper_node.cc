@@ -540,13 +540,14 @@ std::string MapperNode::summary() const {
   std::lock_guard<std::mutex> lock(mutex_);
   const MapperStats& s = mapper_.stats();
   std::ostringstream out;
-  out << "scans_inserted=" << s.scans_inserted << " scans_skipped=" << counters_.skippedTotal()
+  // The session's count, as /diagnostics has it (the mapper's starts again at a reset).
+  out << "scans_inserted=" << counters_.scans_inserted << " scans_skipped=" << counters_.skippedTotal()
       << " time_jumps_back=" << counters_.time_jumps_back
       << " scans_held_for_order=" << counters_.scans_held_for_order << " scans_taken_over=" << counters_.scans_taken_over;
   for (const auto& kv : counters_.skipped) out << " skipped_" << kv.first << '=' << kv.second;
   out << " readings: " << s.readings.summary() << " voxels=" << mapper_.tree().getNumLeafNodes()
       << " known_cells=" << mapper_.slice().knownCells() << " insert_ms_per_scan="
-      << (s.scans_inserted ? 1000.0 * insert_seconds_ / s.scans_inserted : 0.0)
+      << (counters_.scans_inserted ? 1000.0 * insert_seconds_ / counters_.scans_inserted : 0.0)
       << " wall_s=" << (ros::WallTime::now() - started_).toSec();
   return out.str();
 }

@@ -189,7 +189,9 @@ int main(int argc, char** argv) {
   std::size_t scans_read = 0, beams = 0;
   double insert_seconds = 0.0;
   std::map<std::string, std::size_t> skipped_scans;
-  auto consume = [&](const osm::Scan& scan) {
+  std::size_t refused_reported = 0;
+  // `where`: the log and line (or bag message) the scan came from, for the report of a refused one.
+  auto consume = [&](const osm::Scan& scan, const std::string& where) {
     const bool hold = osm::HoldOut{args.holdout_every, 5}.holds(scans_read);
     ++scans_read;
     if (hold) {
@@ -201,6 +203,8 @@ int main(int argc, char** argv) {
     insert_seconds += std::chrono::duration<double>(Clock::now() - t0).count();
     if (!result.ok()) {
       skipped_scans["invalid_scan"]++;
+      if (++refused_reported <= 20) std::cerr << "octo_slice_map: " << where << ": scan skipped: " << result.error << "\n";
+      if (refused_reported == 21) std::cerr << "octo_slice_map: (further skipped scans are only counted)\n";
       return;
     }
     beams += scan.ranges.size();
@@ -216,7 +220,7 @@ int main(int argc, char** argv) {
     }
     osm::LogScan record;
     while (reader.next(&record)) {
-      consume(record.scan);
+      consume(record.scan, args.log + ":" + std::to_string(record.line));
       bar.update("mapping", reader.fileSize() ? double(reader.bytesRead()) / reader.fileSize() : 0.0);
     }
     bar.finish();
@@ -238,7 +242,7 @@ int main(int argc, char** argv) {
     }
     skipped_scans = bag.skipped;
     for (std::size_t k = 0; k < bag.scans.size(); ++k) {
-      consume(bag.scans[k]);
+      consume(bag.scans[k], args.bag + ": scan " + std::to_string(k));
       bar.update("mapping", double(k + 1) / bag.scans.size());
     }
     bar.finish();
