@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <limits>
 #include <random>
 
 #include "octo_slice_mapper/map_evaluation.h"
@@ -155,4 +156,27 @@ TEST(GlobalOptimizer, SimulatedSessionIsNotWorseThanTheIncrementalMap) {
   std::printf("[ simulated session ] optimized (warm start, %d sweeps) precision %.4f recall %.4f\n", warm.sweeps,
               opt_warm.precision, opt_warm.recall);
   EXPECT_TRUE(warm.converged);
+}
+
+// The global pass reads readings by the insertion's rules (issue 20's bug: it used the default
+// rules whatever the insertion was told): with REP 117 on, +inf beams clear as no-returns in both.
+TEST(GlobalOptimizer, ReadsInfinityAsTheInsertionDoes) {
+  Scan scan;
+  scan.sensor_pose.translation() = Eigen::Vector3d(0, 0, 0.26);
+  scan.angle_min = -0.5f;
+  scan.angle_increment = 0.01f;
+  scan.range_min = 0.02f;
+  scan.range_max = 5.6f;
+  scan.ranges.assign(101, std::numeric_limits<float>::infinity());
+  scan.ranges[50] = 2.0f;
+  for (bool rep117 : {true, false}) {
+    MapperOptions options;
+    options.insert.readings.inf_is_no_return = rep117;
+    options.insert.model.no_return_clear_distance = 3.0;
+    Mapper mapper(options);
+    ASSERT_TRUE(mapper.insert(scan).ok());
+    EXPECT_EQ(mapper.stats().readings[ReadingKind::kNoReturn], rep117 ? 100u : 0u);
+    const OptimizedMap optimized = mapper.optimize(/*warm_start=*/true);
+    EXPECT_EQ(optimized.report.beams, rep117 ? 101u : 1u) << "REP 117 " << rep117;
+  }
 }

@@ -8,7 +8,8 @@
 using namespace octo_slice_mapper;
 
 TEST(ClassifyReading, EachKind) {
-  const ReadingPolicy policy;
+  ReadingPolicy policy;
+  policy.inf_is_no_return = false;  // +inf invalid, as some older drivers mean it
   EXPECT_EQ(classifyReading(1.0f, 0.1f, 5.0f, policy), ReadingKind::kHit);
   EXPECT_EQ(classifyReading(5.0f, 0.1f, 5.0f, policy), ReadingKind::kNoReturn);
   EXPECT_EQ(classifyReading(81.83f, 0.1f, 5.0f, policy), ReadingKind::kNoReturn);
@@ -20,11 +21,12 @@ TEST(ClassifyReading, EachKind) {
   EXPECT_EQ(classifyReading(0.05f, 0.1f, 5.0f, policy), ReadingKind::kBelowMin);
 }
 
-TEST(ClassifyReading, Rep117InfinityAsNoReturnWhenAsked) {
-  ReadingPolicy policy;
-  policy.inf_is_no_return = true;
+// REP 117 by default: +inf is no return, -inf too close (counted, no update), NaN invalid.
+TEST(ClassifyReading, Rep117ByDefault) {
+  const ReadingPolicy policy;
   EXPECT_EQ(classifyReading(std::numeric_limits<float>::infinity(), 0.1f, 5.0f, policy), ReadingKind::kNoReturn);
   EXPECT_EQ(classifyReading(-std::numeric_limits<float>::infinity(), 0.1f, 5.0f, policy), ReadingKind::kInfinite);
+  EXPECT_EQ(classifyReading(std::nanf(""), 0.1f, 5.0f, policy), ReadingKind::kNaN);
 }
 
 TEST(ReadingCounts, SkippedCountsOnlyInvalidReadings) {

@@ -18,6 +18,8 @@ namespace octo_slice_mapper {
 
 struct GlobalOptimizerOptions {
   ForwardSensorModelOptions model;
+  // How readings are read: the Mapper gives the insertion's, so both passes read a scan alike.
+  ReadingPolicy readings;
   // A no-return reading says "no obstacle within this distance" (as the inverse model clears).
   double no_return_range = 4.0;
   // Returns farther than this are not used (0 = the sensor's range_max).

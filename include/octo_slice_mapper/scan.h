@@ -27,7 +27,7 @@ enum class ReadingKind : std::uint8_t {
   kHit,          // a return inside (range_min, range_max)
   kNoReturn,     // at or beyond range_max: free space up to a clearing distance, nothing occupied
   kNaN,          // driver error
-  kInfinite,     // +/-inf (see ReadingPolicy::inf_is_no_return for REP-117 drivers)
+  kInfinite,     // -inf ("too close", REP 117), and +inf when ReadingPolicy::inf_is_no_return is off
   kNegative,     // < 0
   kBelowMin,     // in [0, range_min)
 };
@@ -35,9 +35,9 @@ constexpr int kReadingKindCount = 6;
 const char* readingKindName(ReadingKind kind);
 
 struct ReadingPolicy {
-  // REP-117 drivers report "nothing within range" as +inf; by default +inf is treated as invalid
-  // like NaN, because many older drivers also emit it on errors.
-  bool inf_is_no_return = false;
+  // REP 117: +inf is "nothing within range" (a no-return), -inf "too close" (counted as kInfinite,
+  // no update), NaN invalid. false: +inf is invalid too, as some older drivers emit it on errors.
+  bool inf_is_no_return = true;
 };
 
 ReadingKind classifyReading(float range, float range_min, float range_max, const ReadingPolicy& policy);

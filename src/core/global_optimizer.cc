@@ -117,7 +117,7 @@ void GlobalOptimizer::build(const std::vector<StoredScan>& scans, const Progress
     const Eigen::Matrix3f rotation = s.rotation.toRotationMatrix();
     for (std::size_t k = 0; k < s.ranges.size(); ++k) {
       const float r = s.ranges[k];
-      const ReadingKind kind = classifyReading(r, s.range_min, s.range_max, {});
+      const ReadingKind kind = classifyReading(r, s.range_min, s.range_max, options_.readings);
       if (kind != ReadingKind::kHit && kind != ReadingKind::kNoReturn) continue;
       const float a = s.angle_min + static_cast<float>(k) * s.angle_increment;
       const Eigen::Vector3f d3 = rotation * Eigen::Vector3f(std::cos(a), std::sin(a), 0.0f);

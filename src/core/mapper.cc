@@ -18,6 +18,7 @@ Mapper::Mapper(const MapperOptions& options) : options_(options), store_(options
     throw std::invalid_argument("mapper: need 0 < clamp_min < 0.5 < clamp_max < 1");
   }
   options_.optimizer.no_return_range = options.insert.model.no_return_clear_distance;
+  options_.optimizer.readings = options.insert.readings;
   options_.optimizer.max_range = options.insert.max_range;
   adopt(std::make_unique<octomap::OcTree>(options.resolution));
 }
