@@ -132,8 +132,8 @@ TEST(ScanInserter, InvalidReadingsAreCountedAndSkipped) {
   octomap::OcTree tree(0.05);
   ScanInserter inserter(&tree, InsertOptions{});
   const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
-  // Beams 90 deg apart, one per kind.
-  const Scan scan = makeScan(laserPoseOnRobot(0, 0, 0), 0.0f, float(M_PI / 2), {nan, inf, -1.0f, 0.01f}, 0.02f, 5.6f);
+  // Beams 90 deg apart, one per kind (-inf: "too close" under REP 117).
+  const Scan scan = makeScan(laserPoseOnRobot(0, 0, 0), 0.0f, float(M_PI / 2), {nan, -inf, -1.0f, 0.01f}, 0.02f, 5.6f);
   const InsertResult result = inserter.insert(scan);
   inserter.flush();
   ASSERT_TRUE(result.ok());

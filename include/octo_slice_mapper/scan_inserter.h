@@ -66,8 +66,9 @@ class ScanInserter {
   // The interpretation of a scan as beams (exposed for tests and the reference implementation).
   std::vector<Beam> beamsOf(const Scan& scan, ReadingCounts* counts) const;
 
-  // Every (voxel, evidence) pair the model gives for a scan, before combining per voxel: what the
-  // fast path folds into the cache, for a straightforward reference implementation to check it.
+  // Every (voxel, evidence) pair the model gives for a scan, each beam's once per voxel, before
+  // the beams are combined per voxel: what the fast path folds into the cache, for a
+  // straightforward reference implementation to check it.
   // By default the model is evaluated for every voxel; with `shortcuts`, as the fast path does,
   // not where a voxel is surely in the free valley (the pairs must be the same).
   void traceEvidence(const Scan& scan, const std::function<void(const octomap::OcTreeKey&, float)>& fn,

@@ -418,8 +418,6 @@ void ScanInserter::handOnOncePerVoxel(std::vector<KeyUpdate>* evidence, Sink& si
   }
 }
 
-
-
 std::vector<KeyUpdate> ScanInserter::computeUpdates(const Eigen::Vector3d& origin, const std::vector<Beam>& beams,
                                                     double half_angle) {
   octomap::OcTreeKey origin_key;
