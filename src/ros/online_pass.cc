@@ -25,6 +25,11 @@ OnlinePass::~OnlinePass() {
 }
 
 void OnlinePass::tick(const ros::WallTimerEvent&) {
+  std::uint64_t generation;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    generation = generation_;
+  }
   if (std::optional<OnlineOptimizerResult> result = optimizer_.take()) {
     nav_msgs::OccupancyGrid grid;
     const ros::Time now = ros::Time::now();
@@ -32,6 +37,7 @@ void OnlinePass::tick(const ros::WallTimerEvent&) {
     const double age = now.toSec() - result->newest_stamp;
     {
       std::lock_guard<std::mutex> lock(mutex_);
+      if (generation != generation_) return;  // the map was reset since: this result is of the old one
       latest_ = grid;
       stats_.passes++;
       stats_.last_pass_seconds = result->seconds;
@@ -53,8 +59,9 @@ bool OnlinePass::latest(nav_msgs::OccupancyGrid* grid) const {
 }
 
 void OnlinePass::forget() {
-  optimizer_.forget();
   std::lock_guard<std::mutex> lock(mutex_);
+  ++generation_;
+  optimizer_.forget();
   latest_.reset();
 }
 

@@ -54,6 +54,7 @@ class OnlinePass {
   ros::WallTimer timer_;
   mutable std::mutex mutex_;  // guards latest_ and stats_
   std::optional<nav_msgs::OccupancyGrid> latest_;
+  std::uint64_t generation_ = 0;  // counts forget()s
   OnlinePassStats stats_;
 };
 
