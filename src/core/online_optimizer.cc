@@ -1,6 +1,7 @@
 #include "octo_slice_mapper/online_optimizer.h"
 
 #include <chrono>
+#include <cmath>
 
 namespace octo_slice_mapper {
 namespace {
