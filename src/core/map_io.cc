@@ -8,6 +8,7 @@
 #include <cstring>
 #include <sstream>
 #include <utility>
+#include <vector>
 
 #include "octo_slice_mapper/atomic_file.h"
 
@@ -16,6 +17,86 @@ namespace {
 
 const char kBinaryHeader[] = "# Octomap OcTree binary file";
 const char kFullHeader[] = "# Octomap OcTree file";
+
+// Walks a .ot's node records from `begin` as OctoMap's reader reads them (each node: its float
+// log-odds, then a byte of child bits; children depth first), without building anything: every
+// record must be complete, every value a finite log-odds, no node deeper than an OcTree's 16
+// levels. Counts the nodes; false with the reason on the first problem.
+bool walkFullTreeData(const std::string& bytes, std::size_t begin, std::size_t* nodes, std::string* why) {
+  constexpr unsigned kMaxDepth = 16;
+  std::size_t pos = begin;
+  std::vector<int> left;  // per open level, the children still to read
+  *nodes = 0;
+  do {
+    if (!left.empty()) --left.back();
+    if (pos + sizeof(float) + 1 > bytes.size()) {
+      *why = "the data ends inside node " + std::to_string(*nodes + 1);
+      return false;
+    }
+    float value;
+    std::memcpy(&value, bytes.data() + pos, sizeof value);
+    const unsigned children = static_cast<unsigned char>(bytes[pos + sizeof(float)]);
+    pos += sizeof(float) + 1;
+    ++*nodes;
+    if (!std::isfinite(value)) {
+      *why = "node " + std::to_string(*nodes) + "'s log-odds is not a finite number";
+      return false;
+    }
+    if (children != 0) {
+      if (left.size() + 1 > kMaxDepth) {
+        *why = "node " + std::to_string(*nodes) + " has children below the deepest level";
+        return false;
+      }
+      left.push_back(__builtin_popcount(children));
+    }
+    while (!left.empty() && left.back() == 0) left.pop_back();
+  } while (!left.empty());
+  return true;
+}
+
+// The same for a .bt's data: each node is two bytes of 2-bit child codes (01 free leaf, 10
+// occupied leaf, 11 a child whose own record follows, 00 none), inner children depth first.
+bool walkBinaryTreeData(const std::string& bytes, std::size_t begin, std::size_t* nodes, std::string* why) {
+  constexpr unsigned kMaxDepth = 16;
+  std::size_t pos = begin;
+  std::vector<int> left;
+  *nodes = 1;  // the root
+  std::size_t records = 0;
+  do {
+    if (!left.empty()) --left.back();
+    if (pos + 2 > bytes.size()) {
+      *why = "the data ends inside node record " + std::to_string(records + 1);
+      return false;
+    }
+    const unsigned codes = static_cast<unsigned char>(bytes[pos]) | (unsigned(static_cast<unsigned char>(bytes[pos + 1])) << 8);
+    pos += 2;
+    ++records;
+    int inner = 0;
+    for (int i = 0; i < 8; ++i) {
+      const unsigned code = (codes >> (2 * i)) & 3u;
+      *nodes += code != 0;
+      inner += code == 3;
+    }
+    if (inner > 0) {
+      if (left.size() + 1 >= kMaxDepth) {
+        *why = "node record " + std::to_string(records) + " has children below the deepest level";
+        return false;
+      }
+      left.push_back(inner);
+    }
+    while (!left.empty() && left.back() == 0) left.pop_back();
+  } while (!left.empty());
+  return true;
+}
+
+// The header's node count and where the data begins (after its "data" line), for .bt and .ot.
+bool headerOf(const std::string& bytes, std::size_t* declared, std::size_t* data_begin) {
+  const std::size_t size_at = bytes.find("\nsize ");
+  const std::size_t data_at = bytes.find("\ndata\n");
+  if (size_at == std::string::npos || size_at > 512 || data_at == std::string::npos || data_at > 512) return false;
+  *data_begin = data_at + 6;
+  return std::sscanf(bytes.c_str() + size_at + 6, "%zu", declared) == 1;
+}
 const int kMinPictureSide = 1600;  // pixels: thin walls of big maps stay visible
 
 bool startsWith(const std::string& s, const char* prefix) { return s.compare(0, std::strlen(prefix), prefix) == 0; }
@@ -71,6 +152,15 @@ std::unique_ptr<octomap::OcTree> loadTree(const std::string& path, std::string* 
   if (!readFile(path, &bytes, error)) return nullptr;
   std::istringstream in(bytes, std::ios::binary);
   if (startsWith(bytes, kBinaryHeader)) {
+    // OctoMap's reader reads child bytes past the end of a truncated file (uninitialised, so it
+    // can recurse without bound): the data is walked here first.
+    std::size_t declared = 0, data_begin = 0, nodes = 0;
+    std::string why;
+    if (!headerOf(bytes, &declared, &data_begin) || !walkBinaryTreeData(bytes, data_begin, &nodes, &why) ||
+        nodes != declared) {
+      *error = path + ": corrupt or truncated OctoMap binary (.bt) file" + (why.empty() ? "" : ": " + why);
+      return nullptr;
+    }
     auto tree = std::make_unique<octomap::OcTree>(0.1);
     if (!tree->readBinary(in)) {
       *error = path + ": corrupt or truncated OctoMap binary (.bt) file";
@@ -80,15 +170,18 @@ std::unique_ptr<octomap::OcTree> loadTree(const std::string& path, std::string* 
   }
   if (startsWith(bytes, kFullHeader)) {
     // OctoMap's reader builds a tree from whatever a truncated or damaged file holds (issue 19: half
-    // a .ot gave 2 billion known cells and voxels at z = 327 m): the header's node count must be
-    // what was read, the data must not have run out, and every value must be a finite log-odds.
-    std::size_t declared = 0;
-    const std::size_t size_at = bytes.find("\nsize ");
-    const bool has_size = size_at != std::string::npos && size_at < 512 &&
-                          std::sscanf(bytes.c_str() + size_at + 6, "%zu", &declared) == 1;
-    // Each node takes at least 5 bytes (its float and its child bits).
-    if (!has_size || declared > bytes.size() / 5 + 1) {
-      *error = path + ": corrupt OctoMap (.ot) file: no node count, or more nodes than the file can hold";
+    // a .ot gave 2 billion known cells and voxels at z = 327 m), and a child byte it reads past the
+    // end is uninitialised, so it can recurse without bound: the data is walked here first.
+    std::size_t declared = 0, data_begin = 0;
+    if (!headerOf(bytes, &declared, &data_begin)) {
+      *error = path + ": corrupt OctoMap (.ot) file: no node count or no data in its header";
+      return nullptr;
+    }
+    std::size_t nodes = 0;
+    std::string why;
+    if (!walkFullTreeData(bytes, data_begin, &nodes, &why) || nodes != declared) {
+      *error = path + ": truncated or corrupt OctoMap (.ot) file: " +
+               (why.empty() ? std::to_string(declared) + " nodes declared, " + std::to_string(nodes) + " there" : why);
       return nullptr;
     }
     std::unique_ptr<octomap::AbstractOcTree> abstract(octomap::AbstractOcTree::read(in));
@@ -102,15 +195,9 @@ std::unique_ptr<octomap::OcTree> loadTree(const std::string& path, std::string* 
       return nullptr;
     }
     if (in.fail() || tree->size() != declared) {
-      *error = path + ": truncated or corrupt OctoMap (.ot) file: " + std::to_string(declared) + " nodes declared, " +
-               std::to_string(tree->size()) + " read" + (in.fail() ? " before the data ran out" : "");
+      *error = path + ": corrupt OctoMap (.ot) file: " + std::to_string(declared) + " nodes declared, " +
+               std::to_string(tree->size()) + " read";
       return nullptr;
-    }
-    for (auto it = tree->begin_tree(), end = tree->end_tree(); it != end; ++it) {
-      if (!std::isfinite(it->getLogOdds())) {
-        *error = path + ": corrupt OctoMap (.ot) file: a node's log-odds is not a finite number";
-        return nullptr;
-      }
     }
     abstract.release();
     return std::unique_ptr<octomap::OcTree>(tree);
