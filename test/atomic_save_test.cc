@@ -6,6 +6,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <random>
 
 #include "octo_slice_mapper/map_io.h"
@@ -122,3 +123,22 @@ TEST_F(AtomicSaveTest, FullDiskFailsTheSaveAndKeepsThePreviousMap) {
 }
 
 }  // namespace
+
+// What a killed save leaves (PATH.tmp-XXXXXX) goes at the next save of that path, and all of a
+// folder's at once (the node does that to maps_dir at start-up); other files stay (issue 19).
+TEST_F(AtomicSaveTest, TemporariesAKilledSaveLeftAreRemoved) {
+  for (const char* name : {"m.ot.tmp-AbC123", "m.pgm.tmp-xyz789", "other.bt.tmp-111111", "m.ot.tmp-toolong7", "m.ot"}) {
+    std::string error;
+    ASSERT_TRUE(writeFileAtomically(dir_ + "/" + name, "left behind", &error)) << error;
+  }
+  std::vector<std::string> written;
+  std::string error;
+  ASSERT_TRUE(saveMapSet(small_->tree(), gridImageOf(small_->slice()), dir_ + "/m", &written, &error)) << error;
+  std::vector<std::string> temps = tempFiles();
+  std::sort(temps.begin(), temps.end());
+  EXPECT_EQ(temps, (std::vector<std::string>{"m.ot.tmp-toolong7", "other.bt.tmp-111111"}))
+      << "the save removes its own files' temporaries only";
+  EXPECT_EQ(removeStaleTemporariesIn(dir_), 1u);
+  EXPECT_EQ(tempFiles(), std::vector<std::string>{"m.ot.tmp-toolong7"}) << "not mkstemp's pattern: kept";
+  EXPECT_NE(loadTree(dir_ + "/m.ot", &error), nullptr) << error;
+}

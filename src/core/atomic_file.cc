@@ -1,5 +1,6 @@
 #include "octo_slice_mapper/atomic_file.h"
 
+#include <dirent.h>
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -14,9 +15,32 @@ namespace octo_slice_mapper {
 
 namespace {
 
+constexpr char kTempTag[] = ".tmp-";
+constexpr std::size_t kTempSuffix = sizeof(kTempTag) - 1 + 6;  // ".tmp-" and mkstemp's six characters
+
+// Removes the entries of `folder` named `stem` + ".tmp-XXXXXX" (any stem when `stem` is null).
+std::size_t removeTemporaries(const std::string& folder, const std::string* stem) {
+  DIR* dir = ::opendir(folder.empty() ? "." : folder.c_str());
+  if (!dir) return 0;
+  std::vector<std::string> stale;
+  while (const dirent* entry = ::readdir(dir)) {
+    const std::string name = entry->d_name;
+    if (name.size() <= kTempSuffix) continue;
+    const std::size_t tag = name.size() - kTempSuffix;
+    if (name.compare(tag, sizeof(kTempTag) - 1, kTempTag) != 0) continue;
+    if (stem && name.compare(0, tag, *stem) != 0) continue;
+    if (stem && tag != stem->size()) continue;
+    stale.push_back((folder.empty() ? "" : folder + "/") + name);
+  }
+  ::closedir(dir);
+  std::size_t removed = 0;
+  for (const std::string& path : stale) removed += ::unlink(path.c_str()) == 0;
+  return removed;
+}
+
 // Writes `bytes` to a new temporary file beside `path` and flushes it; its name goes to `temp`.
 bool writeTemporary(const std::string& path, const std::string& bytes, std::string* temp, std::string* error) {
-  std::string tmpl = path + ".tmp-XXXXXX";
+  std::string tmpl = path + kTempTag + "XXXXXX";
   std::vector<char> name(tmpl.begin(), tmpl.end());
   name.push_back('\0');
   const int fd = ::mkstemp(name.data());
@@ -53,6 +77,8 @@ bool writeTemporary(const std::string& path, const std::string& bytes, std::stri
 }  // namespace
 
 bool writeFilesAtomically(const FileSet& files, std::vector<std::string>* written, std::string* error) {
+  // What a save killed earlier left of these files goes first.
+  for (const auto& file : files) removeStaleTemporaries(file.first);
   std::vector<std::string> temps;
   for (const auto& file : files) {
     std::string temp;
@@ -92,5 +118,14 @@ bool readFile(const std::string& path, std::string* bytes, std::string* error) {
   *bytes = buffer.str();
   return true;
 }
+
+std::size_t removeStaleTemporaries(const std::string& path) {
+  const std::size_t slash = path.find_last_of('/');
+  const std::string folder = slash == std::string::npos ? "" : path.substr(0, slash == 0 ? 1 : slash);
+  const std::string stem = slash == std::string::npos ? path : path.substr(slash + 1);
+  return removeTemporaries(folder, &stem);
+}
+
+std::size_t removeStaleTemporariesIn(const std::string& folder) { return removeTemporaries(folder, nullptr); }
 
 }  // namespace octo_slice_mapper

@@ -42,6 +42,10 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
       ROS_ERROR("could not load ~map_file: %s; starting with an empty map", error.c_str());
     }
   }
+  // What saves killed mid-write left in maps_dir (each set's final names are whole; see README).
+  if (const std::size_t stale = removeStaleTemporariesIn(options_.maps_dir)) {
+    ROS_INFO("removed %zu temporary files a killed save had left in %s", stale, options_.maps_dir.c_str());
+  }
   map_pub_ = nh_.advertise<nav_msgs::OccupancyGrid>("map", 1, true);
   metadata_pub_ = nh_.advertise<nav_msgs::MapMetaData>("map_metadata", 1, true);
   // What each scan changed, right after it is inserted (rviz's Map display reads map_updates).
