@@ -56,8 +56,6 @@ class OnlineOptimizer {
   // Forgets the last result (after the map was reset or replaced): the next pass starts from the
   // incremental slice alone.
   void forget();
-  // Bytes held: the waiting input's scans and the last result's grid.
-  std::size_t memoryBytes() const;
 
  private:
   void run();

@@ -17,11 +17,19 @@ struct OptimizedMap {
   GridImage grid;  // 100 occupied, 0 free, -1 never observed
 };
 
+// When the start is a converged earlier result over scans[0, first_new_scan) (`earlier`), the
+// first sweep need only look at the cells GlobalOptimizer::cellsToRevisit names.
+struct RevisitFrom {
+  std::size_t first_new_scan = 0;
+  const GridImage* earlier = nullptr;
+};
+
 // Hill climbing over the cells the scans observed, from all-free (the lab's start) or, when
-// `warm_start` is given, from its cells above 50 % (the incremental map's max-likelihood state).
+// `warm_start` is given, from its cells above 50 % (the incremental map's max-likelihood state);
+// with `revisit`, the first sweep restricted as RevisitFrom says.
 OptimizedMap optimizeScans(const std::vector<StoredScan>& scans, const GlobalOptimizerOptions& options,
                            double resolution, const GridImage* warm_start = nullptr,
-                           const ProgressFn& progress = {});
+                           const ProgressFn& progress = {}, const RevisitFrom* revisit = nullptr);
 
 // Sets the slice-band voxels under every known cell of `grid` to the tree's clamping bound
 // (occupied -> max, free -> min); unknown cells are left alone. `grid` must be aligned with the

@@ -73,16 +73,6 @@ void OnlineOptimizer::forget() {
   ++generation_;
 }
 
-std::size_t OnlineOptimizer::memoryBytes() const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  std::size_t bytes = last_.cells.capacity();
-  if (waiting_) {
-    for (const StoredScan& s : waiting_->scans) bytes += s.bytes();
-    bytes += waiting_->incremental.cells.capacity();
-  }
-  return bytes;
-}
-
 void OnlineOptimizer::run() {
   std::unique_lock<std::mutex> lock(mutex_);
   for (;;) {
@@ -101,19 +91,11 @@ void OnlineOptimizer::run() {
     lock.unlock();
 
     const auto t0 = std::chrono::steady_clock::now();
-    GlobalOptimizer optimizer(options_, resolution_);
-    optimizer.build(input.scans);
-    optimizer.startFrom(warmStartFrom(last, input.incremental));
-    const double build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const GridImage start = warmStartFrom(last, input.incremental);
+    const RevisitFrom revisit{revisit_from, &last};
     OnlineOptimizerResult result;
-    if (revisit_from > 0) {
-      const std::vector<std::uint8_t> look = optimizer.cellsToRevisit(revisit_from, last);
-      result.map.report = optimizer.optimize({}, &look);
-    } else {
-      result.map.report = optimizer.optimize();
-    }
-    result.map.report.build_seconds = build_seconds;
-    result.map.grid = inFrameOf(cropToKnown(optimizer.result()), input.incremental);
+    result.map = optimizeScans(input.scans, options_, resolution_, &start, {}, revisit_from > 0 ? &revisit : nullptr);
+    result.map.grid = inFrameOf(result.map.grid, input.incremental);
     result.scans_revisited_from = revisit_from;
     result.version = input.version;
     result.newest_stamp = input.newest_stamp;

@@ -9,14 +9,20 @@
 namespace octo_slice_mapper {
 
 OptimizedMap optimizeScans(const std::vector<StoredScan>& scans, const GlobalOptimizerOptions& options,
-                           double resolution, const GridImage* warm_start, const ProgressFn& progress) {
+                           double resolution, const GridImage* warm_start, const ProgressFn& progress,
+                           const RevisitFrom* revisit) {
   const auto t0 = std::chrono::steady_clock::now();
   GlobalOptimizer optimizer(options, resolution);
   optimizer.build(scans, progress);
   if (warm_start) optimizer.startFrom(*warm_start);
   const double build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   OptimizedMap out;
-  out.report = optimizer.optimize(progress);
+  if (revisit && revisit->earlier) {
+    const std::vector<std::uint8_t> look = optimizer.cellsToRevisit(revisit->first_new_scan, *revisit->earlier);
+    out.report = optimizer.optimize(progress, &look);
+  } else {
+    out.report = optimizer.optimize(progress);
+  }
   out.report.build_seconds = build_seconds;
   out.grid = cropToKnown(optimizer.result());
   return out;
