@@ -41,5 +41,21 @@ inline std::vector<CloudScan> returnsAsClouds(const std::vector<Scan>& scans) {
   return clouds;
 }
 
+// One scan as octomap_server's insertScan puts it into its octree (without its ground filter):
+// free / occupied KeySets from computeRayKeys (occupied wins), then updateNode per key.
+inline void insertLikeOctomapServer(octomap::OcTree* tree, const CloudScan& scan) {
+  octomap::KeySet free_cells, occupied_cells;
+  octomap::KeyRay ray;
+  for (const octomap::point3d& p : scan.points) {
+    if (tree->computeRayKeys(scan.origin, p, ray)) free_cells.insert(ray.begin(), ray.end());
+    octomap::OcTreeKey key;
+    if (tree->coordToKeyChecked(p, key)) occupied_cells.insert(key);
+  }
+  for (const octomap::OcTreeKey& k : free_cells) {
+    if (!occupied_cells.count(k)) tree->updateNode(k, false);
+  }
+  for (const octomap::OcTreeKey& k : occupied_cells) tree->updateNode(k, true);
+}
+
 }  // namespace bench
 }  // namespace octo_slice_mapper

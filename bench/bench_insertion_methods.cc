@@ -47,24 +47,10 @@ namespace osm = octo_slice_mapper;
 using Clock = std::chrono::steady_clock;
 
 using osm::bench::CloudScan;
+using osm::bench::insertLikeOctomapServer;
 using osm::bench::median;
 
 namespace {
-
-// (a) as octomap_server's insertScan does it (without its ground filter).
-void insertLikeOctomapServer(octomap::OcTree* tree, const CloudScan& scan) {
-  octomap::KeySet free_cells, occupied_cells;
-  octomap::KeyRay ray;
-  for (const octomap::point3d& p : scan.points) {
-    if (tree->computeRayKeys(scan.origin, p, ray)) free_cells.insert(ray.begin(), ray.end());
-    octomap::OcTreeKey key;
-    if (tree->coordToKeyChecked(p, key)) occupied_cells.insert(key);
-  }
-  for (const octomap::OcTreeKey& k : free_cells) {
-    if (!occupied_cells.count(k)) tree->updateNode(k, false);
-  }
-  for (const octomap::OcTreeKey& k : occupied_cells) tree->updateNode(k, true);
-}
 
 // (c) A flat grid over the data's extent: log-odds floats, Bresenham, the same hit/miss and clamping.
 class FlatGrid {

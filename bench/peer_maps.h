@@ -29,19 +29,7 @@ inline GridImage octomapServerMap(const std::vector<Scan>& scans, double resolut
   tree.setProbMiss(0.4);
   tree.setClampingThresMin(0.12);
   tree.setClampingThresMax(0.97);
-  for (const CloudScan& scan : returnsAsClouds(scans)) {
-    octomap::KeySet free_cells, occupied_cells;
-    octomap::KeyRay ray;
-    for (const octomap::point3d& p : scan.points) {
-      if (tree.computeRayKeys(scan.origin, p, ray)) free_cells.insert(ray.begin(), ray.end());
-      octomap::OcTreeKey key;
-      if (tree.coordToKeyChecked(p, key)) occupied_cells.insert(key);
-    }
-    for (const octomap::OcTreeKey& k : free_cells) {
-      if (!occupied_cells.count(k)) tree.updateNode(k, false);
-    }
-    for (const octomap::OcTreeKey& k : occupied_cells) tree.updateNode(k, true);
-  }
+  for (const CloudScan& scan : returnsAsClouds(scans)) insertLikeOctomapServer(&tree, scan);
   std::unordered_map<std::uint32_t, std::int8_t> columns;  // key x << 16 | key y
   int x0 = 1 << 16, y0 = 1 << 16, x1 = -1, y1 = -1;
   for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it) {
