@@ -18,75 +18,71 @@ namespace {
 const char kBinaryHeader[] = "# Octomap OcTree binary file";
 const char kFullHeader[] = "# Octomap OcTree file";
 
-// Walks a .ot's node records from `begin` as OctoMap's reader reads them (each node: its float
-// log-odds, then a byte of child bits; children depth first), without building anything: every
-// record must be complete, every value a finite log-odds, no node deeper than an OcTree's 16
-// levels. Counts the nodes; false with the reason on the first problem.
-bool walkFullTreeData(const std::string& bytes, std::size_t begin, std::size_t* nodes, std::string* why) {
-  constexpr unsigned kMaxDepth = 16;
-  std::size_t pos = begin;
-  std::vector<int> left;  // per open level, the children still to read
-  *nodes = 0;
+// Walks the node records of a map file's data from `begin`, depth first as OctoMap's readers
+// read them, without building anything: every record must be complete, and only records at
+// depth <= `deepest_parent` may have child records (an OcTree has 16 levels). `record(bytes, n,
+// why)` looks at record n (`size` bytes) and returns how many of its children have records of
+// their own, or -1 with the reason. False with the reason on the first problem.
+template <typename Record>
+bool walkRecords(const std::string& bytes, std::size_t begin, std::size_t size, std::size_t deepest_parent,
+                 Record&& record, std::string* why) {
+  std::size_t pos = begin, n = 0;
+  std::vector<int> left;  // per open level, the child records still to read
   do {
     if (!left.empty()) --left.back();
-    if (pos + sizeof(float) + 1 > bytes.size()) {
-      *why = "the data ends inside node " + std::to_string(*nodes + 1);
+    if (pos + size > bytes.size()) {
+      *why = "the data ends inside node record " + std::to_string(n + 1);
       return false;
     }
-    float value;
-    std::memcpy(&value, bytes.data() + pos, sizeof value);
-    const unsigned children = static_cast<unsigned char>(bytes[pos + sizeof(float)]);
-    pos += sizeof(float) + 1;
-    ++*nodes;
-    if (!std::isfinite(value)) {
-      *why = "node " + std::to_string(*nodes) + "'s log-odds is not a finite number";
-      return false;
-    }
-    if (children != 0) {
-      if (left.size() + 1 > kMaxDepth) {
-        *why = "node " + std::to_string(*nodes) + " has children below the deepest level";
+    const int children = record(reinterpret_cast<const unsigned char*>(bytes.data() + pos), ++n, why);
+    pos += size;
+    if (children < 0) return false;
+    if (children > 0) {
+      if (left.size() > deepest_parent) {
+        *why = "node record " + std::to_string(n) + " has children below the deepest level";
         return false;
       }
-      left.push_back(__builtin_popcount(children));
+      left.push_back(children);
     }
     while (!left.empty() && left.back() == 0) left.pop_back();
   } while (!left.empty());
   return true;
 }
 
-// The same for a .bt's data: each node is two bytes of 2-bit child codes (01 free leaf, 10
-// occupied leaf, 11 a child whose own record follows, 00 none), inner children depth first.
+// A .ot's data: each node is its float log-odds, then a byte of child bits; every value must be
+// a finite log-odds. Counts the nodes.
+bool walkFullTreeData(const std::string& bytes, std::size_t begin, std::size_t* nodes, std::string* why) {
+  *nodes = 0;
+  return walkRecords(bytes, begin, sizeof(float) + 1, 15,
+                     [nodes](const unsigned char* r, std::size_t n, std::string* reason) {
+                       float value;
+                       std::memcpy(&value, r, sizeof value);
+                       ++*nodes;
+                       if (!std::isfinite(value)) {
+                         *reason = "node " + std::to_string(n) + "'s log-odds is not a finite number";
+                         return -1;
+                       }
+                       return __builtin_popcount(r[sizeof(float)]);
+                     },
+                     why);
+}
+
+// A .bt's data: each node is two bytes of 2-bit child codes (01 free leaf, 10 occupied leaf, 11 a
+// child whose own record follows, 00 none). Counts the nodes (the root and every coded child).
 bool walkBinaryTreeData(const std::string& bytes, std::size_t begin, std::size_t* nodes, std::string* why) {
-  constexpr unsigned kMaxDepth = 16;
-  std::size_t pos = begin;
-  std::vector<int> left;
-  *nodes = 1;  // the root
-  std::size_t records = 0;
-  do {
-    if (!left.empty()) --left.back();
-    if (pos + 2 > bytes.size()) {
-      *why = "the data ends inside node record " + std::to_string(records + 1);
-      return false;
-    }
-    const unsigned codes = static_cast<unsigned char>(bytes[pos]) | (unsigned(static_cast<unsigned char>(bytes[pos + 1])) << 8);
-    pos += 2;
-    ++records;
-    int inner = 0;
-    for (int i = 0; i < 8; ++i) {
-      const unsigned code = (codes >> (2 * i)) & 3u;
-      *nodes += code != 0;
-      inner += code == 3;
-    }
-    if (inner > 0) {
-      if (left.size() + 1 >= kMaxDepth) {
-        *why = "node record " + std::to_string(records) + " has children below the deepest level";
-        return false;
-      }
-      left.push_back(inner);
-    }
-    while (!left.empty() && left.back() == 0) left.pop_back();
-  } while (!left.empty());
-  return true;
+  *nodes = 1;
+  return walkRecords(bytes, begin, 2, 14,
+                     [nodes](const unsigned char* r, std::size_t, std::string*) {
+                       const unsigned codes = r[0] | (unsigned(r[1]) << 8);
+                       int inner = 0;
+                       for (int i = 0; i < 8; ++i) {
+                         const unsigned code = (codes >> (2 * i)) & 3u;
+                         *nodes += code != 0;
+                         inner += code == 3;
+                       }
+                       return inner;
+                     },
+                     why);
 }
 
 // The header's node count and where the data begins (after its "data" line), for .bt and .ot.
