@@ -3,11 +3,14 @@
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <map>
 #include <random>
+#include <set>
 
 #include "octo_slice_mapper/map_io.h"
 #include "octo_slice_mapper/mapper.h"
@@ -141,4 +144,86 @@ TEST_F(AtomicSaveTest, TemporariesAKilledSaveLeftAreRemoved) {
   EXPECT_EQ(removeStaleTemporariesIn(dir_), 1u);
   EXPECT_EQ(tempFiles(), std::vector<std::string>{"m.ot.tmp-toolong7"}) << "not mkstemp's pattern: kept";
   EXPECT_NE(loadTree(dir_ + "/m.ot", &error), nullptr) << error;
+}
+
+// Every file of a set carries its save id; a set whose files come from two saves is reported
+// (issue 19: a kill between the renames left a new .bt/.ot/.pgm/.yaml beside the old .png).
+TEST_F(AtomicSaveTest, AMixedSetIsDetected) {
+  const std::string a = dir_ + "/a", b = dir_ + "/b";
+  std::string error;
+  ASSERT_TRUE(saveMapSet(small_->tree(), gridImageOf(small_->slice()), a, nullptr, &error)) << error;
+  ASSERT_TRUE(saveMapSet(big_->tree(), gridImageOf(big_->slice()), b, nullptr, &error)) << error;
+  const MapSetCheck whole = checkMapSet(b);
+  ASSERT_EQ(whole.files.size(), 5u);
+  EXPECT_FALSE(whole.mixed()) << whole.describe();
+  const std::string id = whole.files.front().second;
+  EXPECT_EQ(id.size(), 16u);
+  EXPECT_NE(readSaveId(a + ".bt"), id) << "two different maps, two ids";
+  // The stamped files still read as what they are, for our readers and OctoMap's.
+  for (const char* ext : {".bt", ".ot"}) {
+    auto tree = loadTree(b + ext, &error);
+    ASSERT_NE(tree, nullptr) << ext << ": " << error;
+    EXPECT_EQ(tree->getNumLeafNodes(), big_->tree().getNumLeafNodes()) << ext;
+  }
+  octomap::OcTree direct(0.1);
+  EXPECT_TRUE(direct.readBinary(b + ".bt"));
+  std::unique_ptr<octomap::AbstractOcTree> full(octomap::AbstractOcTree::read(b + ".ot"));
+  ASSERT_NE(full, nullptr);
+  EXPECT_EQ(full->size(), big_->tree().size());
+  GridImage grid;
+  ASSERT_TRUE(loadPgmYaml(b + ".yaml", &grid, &error)) << error;
+  EXPECT_EQ(grid.width, gridImageOf(big_->slice()).width);
+  // A save killed after renaming some files: b's .png replaced by a's.
+  ASSERT_EQ(std::system(("cp " + a + ".png " + b + ".png").c_str()), 0);
+  const MapSetCheck mixed = checkMapSet(b);
+  EXPECT_TRUE(mixed.mixed());
+  EXPECT_NE(mixed.describe().find("b.bt b.ot b.pgm b.yaml are from save " + id), std::string::npos) << mixed.describe();
+  EXPECT_NE(mixed.describe().find("b.png are from save " + readSaveId(a + ".png")), std::string::npos)
+      << mixed.describe();
+  EXPECT_EQ(mapSetPrefixOf(b + ".bt"), b);
+  EXPECT_EQ(mapSetPrefixOf(b + ".ot"), b);
+}
+
+// Kills during set saves: every final name is a whole file, and checkMapSet calls a set mixed
+// exactly when its files come from different saves.
+TEST_F(AtomicSaveTest, KilledDuringSetSavesAMixIsAlwaysReported) {
+  // The reference sets under the same name elsewhere: the .yaml names its .pgm.
+  const std::string prefix = dir_ + "/m", reference = dir_ + "/ref/m";
+  ASSERT_EQ(::mkdir((dir_ + "/ref").c_str(), 0755), 0);
+  std::string error;
+  std::map<std::string, std::pair<std::string, std::string>> versions;  // ext -> (small's bytes, big's bytes)
+  for (const char* ext : {".bt", ".ot", ".pgm", ".yaml", ".png"}) versions[ext];
+  ASSERT_TRUE(saveMapSet(small_->tree(), gridImageOf(small_->slice()), reference, nullptr, &error)) << error;
+  for (auto& v : versions) ASSERT_TRUE(readFile(reference + v.first, &v.second.first, &error));
+  ASSERT_TRUE(saveMapSet(big_->tree(), gridImageOf(big_->slice()), reference, nullptr, &error)) << error;
+  for (auto& v : versions) ASSERT_TRUE(readFile(reference + v.first, &v.second.second, &error));
+  ASSERT_TRUE(saveMapSet(small_->tree(), gridImageOf(small_->slice()), prefix, nullptr, &error)) << error;
+  std::mt19937 rng(5);
+  int mixes = 0;
+  for (int round = 0; round < 30; ++round) {
+    const pid_t child = ::fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+      std::string e;
+      for (;;) {
+        saveMapSet(big_->tree(), gridImageOf(big_->slice()), prefix, nullptr, &e);
+        saveMapSet(small_->tree(), gridImageOf(small_->slice()), prefix, nullptr, &e);
+      }
+    }
+    ::usleep(std::uniform_int_distribution<int>(2000, 60000)(rng));
+    ::kill(child, SIGKILL);
+    ::waitpid(child, nullptr, 0);
+    std::set<int> sources;  // 0 small's, 1 big's
+    for (const auto& v : versions) {
+      std::string bytes;
+      ASSERT_TRUE(readFile(prefix + v.first, &bytes, &error)) << error;
+      ASSERT_TRUE(bytes == v.second.first || bytes == v.second.second) << "round " << round << ": " << v.first
+                                                                        << " is neither whole save";
+      sources.insert(bytes == v.second.second);
+    }
+    const MapSetCheck check = checkMapSet(prefix);
+    EXPECT_EQ(check.mixed(), sources.size() > 1) << "round " << round << ": " << check.describe();
+    mixes += sources.size() > 1;
+  }
+  std::printf("[ kill during set save ] %d of 30 kills left a mixed set; each was reported\n", mixes);
 }

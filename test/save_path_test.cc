@@ -1,4 +1,5 @@
 #include "octo_slice_mapper/save_path.h"
+#include "octo_slice_mapper/atomic_file.h"
 
 #include <gtest/gtest.h>
 #include <sys/stat.h>
@@ -57,4 +58,23 @@ TEST_F(SavePathTest, ControlCharactersAreRefused) {
   }
   EXPECT_FALSE(resolveSavePrefix(maps_, "x\x7f", true, &resolved, &error));
   EXPECT_TRUE(resolveSavePrefix(maps_, "ünïcode run", false, &resolved, &error)) << error;
+}
+
+// The limit is the final names' (NAME.yaml within 255 characters), not the temporary files'
+// (issue 19: a 250-character prefix was refused because NAME.yaml.tmp-XXXXXX passed 255).
+TEST_F(SavePathTest, PrefixLengthLimitIsTheFinalNames) {
+  std::string resolved, error;
+  EXPECT_TRUE(resolveSavePrefix(maps_, std::string(250, 'p'), false, &resolved, &error)) << error;
+  EXPECT_FALSE(resolveSavePrefix(maps_, std::string(251, 'p'), false, &resolved, &error));
+  EXPECT_NE(error.find("at most 250"), std::string::npos) << error;
+  ASSERT_TRUE(resolveSavePrefix(maps_, std::string(250, 'p'), false, &resolved, &error));
+  ASSERT_TRUE(writeFileAtomically(resolved + ".yaml", "image: x.pgm\n", &error)) << error;
+  std::string back;
+  ASSERT_TRUE(readFile(resolved + ".yaml", &back, &error)) << error;
+  EXPECT_EQ(back, "image: x.pgm\n");
+  // A killed save's temporary of that name (its stem cut to fit) goes at the next save.
+  const std::string stale = maps_ + "/" + std::string(244, 'p') + ".tmp-AbC123";
+  ASSERT_TRUE(writeFileAtomically(stale, "left", &error)) << error;
+  EXPECT_EQ(removeStaleTemporaries(resolved + ".yaml"), 1u);
+  EXPECT_NE(::access(stale.c_str(), F_OK), 0);
 }

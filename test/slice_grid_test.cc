@@ -148,3 +148,42 @@ TEST(SliceGrid, ALayerReachedLaterOrLoadedStillCounts) {
   EXPECT_GT(resumed.slice().valueAt(1.5, 0.0), 50) << "a scan after loading keeps the loaded layer";
   expect_matches_rebuild(resumed);
 }
+
+// Loading a map whose band spans kilometres is refused with a reason instead of building a
+// gigabyte slice for minutes (issue 19: half an .ot took 250 s and 5-8 GB); the map in place stays.
+TEST(SliceGrid, ASliceTooBigToBuildIsRefusedOnLoad) {
+  octomap::OcTree far_apart(0.05);
+  far_apart.updateNode(-1500.0, -1500.0, 0.26, true);
+  far_apart.updateNode(1500.0, 1500.0, 0.26, true);
+  SliceGrid slice(far_apart, SliceOptions());
+  EXPECT_THROW(slice.rebuild(), std::length_error);
+
+  char tmpl[] = "/tmp/osm_slice_XXXXXX";
+  const std::string path = std::string(::mkdtemp(tmpl)) + "/far.ot";
+  std::string error;
+  ASSERT_TRUE(saveFullTree(far_apart, path, &error)) << error;
+  Mapper mapper;
+  ASSERT_TRUE(mapper.insert(test_support::makeScan(test_support::laserPoseOnRobot(0.0, 0.0, 0.0), -0.2f, 0.01f,
+                                                   std::vector<float>(41, 3.0f)))
+                  .ok());
+  const std::size_t known = mapper.slice().knownCells();
+  EXPECT_FALSE(mapper.load(path, &error));
+  EXPECT_NE(error.find("cells"), std::string::npos) << error;
+  EXPECT_EQ(mapper.slice().knownCells(), known) << "the map in place is kept";
+  EXPECT_DOUBLE_EQ(mapper.options().resolution, 0.05);
+}
+
+// Far apart but within the limit: only the leaves' columns are computed, and they are right.
+TEST(SliceGrid, ASparseMapRebuildsItsLeavesColumns) {
+  octomap::OcTree tree(0.05);
+  for (int n = 0; n < 3; ++n) {
+    tree.updateNode(-200.0, -200.0, 0.26, true);
+    tree.updateNode(200.0, 200.0, 0.26, false);
+  }
+  SliceGrid slice(tree, SliceOptions());
+  slice.rebuild();
+  EXPECT_EQ(slice.knownCells(), 2u);
+  EXPECT_GT(slice.valueAt(-200.0, -200.0), 50);
+  EXPECT_LT(slice.valueAt(200.0, 200.0), 50);
+  EXPECT_EQ(slice.valueAt(0.0, 0.0), kUnknownCell);
+}

@@ -16,6 +16,9 @@ struct SliceOptions {
   // +-0.10 m of the 0.26 m laser mount height.
   double min_z = 0.16;
   double max_z = 0.36;
+  // rebuild() (loading a map) refuses a slice of more cells than this, with a reason: 10^8 cells
+  // are 100 MB, 500 m x 500 m at 0.05 m.
+  std::size_t max_cells = 100000000;
 };
 
 constexpr std::int8_t kUnknownCell = -1;
@@ -37,7 +40,8 @@ class SliceGrid {
   // Recomputes only the columns of `keys` that lie in the band (what one scan changed); cost is
   // proportional to the number of keys.
   void updateColumns(const std::vector<octomap::OcTreeKey>& keys, const KeyBox& box);
-  // Recomputes everything from the tree (after loading a map or for checking).
+  // Recomputes everything from the tree (after loading a map or for checking); its cost follows
+  // the band's leaves. Throws std::length_error if the slice would pass options().max_cells.
   void rebuild();
   void clear();
 

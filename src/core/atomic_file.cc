@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <climits>
 #include <cstring>
 #include <fstream>
 #include <sstream>
@@ -17,6 +18,17 @@ namespace {
 
 constexpr char kTempTag[] = ".tmp-";
 constexpr std::size_t kTempSuffix = sizeof(kTempTag) - 1 + 6;  // ".tmp-" and mkstemp's six characters
+
+// The part of a file name its temporary files start with: all of it unless that would make the
+// temporary's name longer than a name can be (a 250-character final name is allowed).
+std::string temporaryStem(const std::string& name) { return name.substr(0, NAME_MAX - kTempSuffix); }
+
+// `path` as (folder, file name); the folder is "" for a bare name.
+std::pair<std::string, std::string> splitPath(const std::string& path) {
+  const std::size_t slash = path.find_last_of('/');
+  if (slash == std::string::npos) return {"", path};
+  return {path.substr(0, slash == 0 ? 1 : slash), path.substr(slash + 1)};
+}
 
 // Removes the entries of `folder` named `stem` + ".tmp-XXXXXX" (any stem when `stem` is null).
 std::size_t removeTemporaries(const std::string& folder, const std::string* stem) {
@@ -40,7 +52,9 @@ std::size_t removeTemporaries(const std::string& folder, const std::string* stem
 
 // Writes `bytes` to a new temporary file beside `path` and flushes it; its name goes to `temp`.
 bool writeTemporary(const std::string& path, const std::string& bytes, std::string* temp, std::string* error) {
-  std::string tmpl = path + kTempTag + "XXXXXX";
+  const auto [folder, name_of_path] = splitPath(path);
+  const std::string dir = folder.empty() ? "" : folder == "/" ? "/" : folder + "/";
+  std::string tmpl = dir + temporaryStem(name_of_path) + kTempTag + "XXXXXX";
   std::vector<char> name(tmpl.begin(), tmpl.end());
   name.push_back('\0');
   const int fd = ::mkstemp(name.data());
@@ -120,9 +134,8 @@ bool readFile(const std::string& path, std::string* bytes, std::string* error) {
 }
 
 std::size_t removeStaleTemporaries(const std::string& path) {
-  const std::size_t slash = path.find_last_of('/');
-  const std::string folder = slash == std::string::npos ? "" : path.substr(0, slash == 0 ? 1 : slash);
-  const std::string stem = slash == std::string::npos ? path : path.substr(slash + 1);
+  const auto [folder, name] = splitPath(path);
+  const std::string stem = temporaryStem(name);
   return removeTemporaries(folder, &stem);
 }
 

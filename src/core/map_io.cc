@@ -1,9 +1,13 @@
 #include "octo_slice_mapper/map_io.h"
 
 #include <png.h>
+#include <unistd.h>
+#include <zlib.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <sstream>
@@ -425,12 +429,125 @@ bool savePng(const GridImage& grid, const std::string& path, std::string* error)
   return addPng(grid, path, &files, error) && writeFilesAtomically(files, nullptr, error);
 }
 
+namespace {
+
+const char* const kSetExtensions[] = {".bt", ".ot", ".pgm", ".yaml", ".png"};
+const char kSaveIdTag[] = "save_id";
+constexpr std::size_t kSaveIdLength = 16;  // hex digits of a 64-bit hash
+constexpr std::size_t kSaveIdSearch = 1024;  // every format puts it within its first bytes
+
+bool endsWith(const std::string& s, const char* suffix) {
+  const std::size_t n = std::strlen(suffix);
+  return s.size() >= n && s.compare(s.size() - n, n, suffix) == 0;
+}
+
+// A set's id: FNV-1a over all its files' bytes but the .yaml's first line (the .pgm's name), so
+// the same map saved twice, under any name, gets the same id (saves stay reproducible byte for
+// byte) and two different sets almost surely differ.
+std::string saveIdOf(const FileSet& files) {
+  std::uint64_t h = 1469598103934665603ull;
+  for (const auto& file : files) {
+    const std::size_t from = endsWith(file.first, ".yaml") ? file.second.find('\n') + 1 : 0;
+    for (std::size_t k = from; k < file.second.size(); ++k) {
+      h = (h ^ static_cast<unsigned char>(file.second[k])) * 1099511628211ull;
+    }
+  }
+  char hex[kSaveIdLength + 1];
+  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h));
+  return hex;
+}
+
+void putBigEndian32(std::string* out, std::uint32_t v) {
+  for (int shift = 24; shift >= 0; shift -= 8) out->push_back(static_cast<char>((v >> shift) & 0xFF));
+}
+
+// Writes the id where each format has room for a note its readers skip: a comment line after the
+// first line of .bt, .ot (OctoMap's readers skip '#' lines of the header) and .pgm, a key of
+// the .yaml (map_server reads only the keys it knows), a tEXt chunk after the .png's IHDR.
+void stampSaveId(std::pair<std::string, std::string>* file, const std::string& id) {
+  std::string& bytes = file->second;
+  if (endsWith(file->first, ".yaml")) {
+    bytes += std::string(kSaveIdTag) + ": " + id + "\n";
+  } else if (endsWith(file->first, ".png")) {
+    constexpr std::size_t kAfterHeader = 8 + 4 + 4 + 13 + 4;  // signature, then IHDR's length, type, data, CRC
+    std::string type_and_data = std::string("tEXt") + kSaveIdTag + '\0' + id;
+    std::string chunk;
+    putBigEndian32(&chunk, static_cast<std::uint32_t>(type_and_data.size() - 4));
+    chunk += type_and_data;
+    putBigEndian32(&chunk, static_cast<std::uint32_t>(
+                               crc32(0, reinterpret_cast<const Bytef*>(type_and_data.data()), type_and_data.size())));
+    bytes.insert(kAfterHeader, chunk);
+  } else {
+    bytes.insert(bytes.find('\n') + 1, "# " + std::string(kSaveIdTag) + " " + id + "\n");
+  }
+}
+
+}  // namespace
+
 bool saveMapSet(const octomap::OcTree& tree, const GridImage& grid, const std::string& prefix,
                 std::vector<std::string>* written, std::string* error) {
   FileSet files;
-  return addBinaryTree(tree, prefix + ".bt", &files, error) && addFullTree(tree, prefix + ".ot", &files, error) &&
-         addPgmYaml(grid, prefix, &files, error) && addPng(grid, prefix + ".png", &files, error) &&
-         writeFilesAtomically(files, written, error);
+  if (!addBinaryTree(tree, prefix + ".bt", &files, error) || !addFullTree(tree, prefix + ".ot", &files, error) ||
+      !addPgmYaml(grid, prefix, &files, error) || !addPng(grid, prefix + ".png", &files, error)) {
+    return false;
+  }
+  const std::string id = saveIdOf(files);
+  for (auto& file : files) stampSaveId(&file, id);
+  return writeFilesAtomically(files, written, error);
+}
+
+std::string readSaveId(const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) return "";
+  std::string head(kSaveIdSearch, '\0');
+  head.resize(std::fread(&head[0], 1, head.size(), f));
+  std::fclose(f);
+  std::size_t at = head.find(kSaveIdTag);
+  if (at == std::string::npos) return "";
+  at += sizeof(kSaveIdTag) - 1;
+  while (at < head.size() && (head[at] == ' ' || head[at] == ':' || head[at] == '\0')) ++at;
+  std::string id = head.substr(at, kSaveIdLength);
+  const bool hex = id.size() == kSaveIdLength &&
+                   std::all_of(id.begin(), id.end(), [](char c) { return std::isxdigit(static_cast<unsigned char>(c)); });
+  return hex ? id : "";
+}
+
+bool MapSetCheck::mixed() const {
+  for (const auto& file : files) {
+    if (file.second != files.front().second) return true;
+  }
+  return false;
+}
+
+std::string MapSetCheck::describe() const {
+  std::vector<std::pair<std::string, std::string>> groups;  // (save id, files)
+  for (const auto& file : files) {
+    auto group = std::find_if(groups.begin(), groups.end(), [&](const auto& g) { return g.first == file.second; });
+    if (group == groups.end()) group = groups.insert(groups.end(), {file.second, ""});
+    group->second += (group->second.empty() ? "" : " ") + baseName(file.first);
+  }
+  std::string text;
+  for (const auto& group : groups) {
+    text += (text.empty() ? "" : "; ") + group.second + " " +
+            (group.first.empty() ? "carry no save id" : "are from save " + group.first);
+  }
+  return text;
+}
+
+std::string mapSetPrefixOf(const std::string& path) {
+  for (const char* extension : kSetExtensions) {
+    if (endsWith(path, extension)) return path.substr(0, path.size() - std::strlen(extension));
+  }
+  return path;
+}
+
+MapSetCheck checkMapSet(const std::string& prefix) {
+  MapSetCheck check;
+  for (const char* extension : kSetExtensions) {
+    const std::string path = prefix + extension;
+    if (::access(path.c_str(), F_OK) == 0) check.files.emplace_back(path, readSaveId(path));
+  }
+  return check;
 }
 
 }  // namespace octo_slice_mapper

@@ -25,11 +25,11 @@ Mapper::Mapper(const MapperOptions& options) : options_(options), store_(options
 
 void Mapper::adopt(std::unique_ptr<octomap::OcTree> tree) {
   useMapperThresholds(options_, tree.get());
-  options_.resolution = tree->getResolution();
-  // Build the new parts before swapping, so a bad option leaves the old map in place.
+  // Build the new parts before swapping, so a bad option or a slice too big leaves the old map in place.
   auto inserter = std::make_unique<ScanInserter>(tree.get(), options_.insert);
   auto slice = std::make_unique<SliceGrid>(*tree, options_.slice, &inserter->cache());
   slice->rebuild();
+  options_.resolution = tree->getResolution();
   tree_ = std::move(tree);
   inserter_ = std::move(inserter);
   slice_ = std::move(slice);

@@ -36,6 +36,13 @@ bool resolveSavePrefix(const std::string& maps_dir, const std::string& requested
     *error = "'" + requested + "' does not end in a file name prefix";
     return false;
   }
+  // The longest file of a set is NAME.yaml; a longer name would fail half-way through a save.
+  constexpr std::size_t kLongestExtension = sizeof(".yaml") - 1;
+  if (name.size() + kLongestExtension > NAME_MAX) {
+    *error = "refused: the file name prefix has " + std::to_string(name.size()) + " characters; with \".yaml\" it " +
+             "must fit in " + std::to_string(NAME_MAX) + " (at most " + std::to_string(NAME_MAX - kLongestExtension) + ")";
+    return false;
+  }
   std::string real_folder;
   if (!canonical(folder, &real_folder)) {
     *error = "folder of '" + requested + "' does not exist (" + folder + ")";

@@ -176,25 +176,57 @@ void SliceGrid::updateColumns(const std::vector<octomap::OcTreeKey>& keys, const
 
 void SliceGrid::rebuild() {
   clear();
+  // Each band leaf's column rectangle (a pruned leaf spans several keys: its whole extent).
+  std::vector<KeyBox> columns;
   KeyBox box;
   for (auto it = tree_.begin_leafs(), end = tree_.end_leafs(); it != end; ++it) {
-    // A pruned leaf spans several keys: include its whole extent.
     const octomap::OcTreeKey k = it.getKey();
     const unsigned span = 1u << (tree_.getTreeDepth() - it.getDepth());
     const unsigned base_mask = ~(span - 1);
     octomap::OcTreeKey lo(k[0] & base_mask, k[1] & base_mask, k[2] & base_mask);
     if (lo[2] + span - 1 < band_lo_ || lo[2] > band_hi_) continue;
     noteLayers(lo[2], lo[2] + span - 1);
-    box.add(lo);
-    box.add(octomap::OcTreeKey(lo[0] + span - 1, lo[1] + span - 1, lo[2] + span - 1));
+    KeyBox leaf;
+    leaf.add(lo);
+    leaf.add(octomap::OcTreeKey(lo[0] + span - 1, lo[1] + span - 1, lo[2] + span - 1));
+    box.add(leaf.min);
+    box.add(leaf.max);
+    columns.push_back(leaf);
   }
   // The cache's layers may hold voxels the tree doesn't have yet.
+  bool cached_layers = false;
   for (unsigned kz = band_lo_; kz <= band_hi_; ++kz) {
-    if (cache_ && cache_->findLayer(static_cast<std::uint16_t>(kz))) noteLayers(kz, kz);
+    if (cache_ && cache_->findLayer(static_cast<std::uint16_t>(kz))) noteLayers(kz, kz), cached_layers = true;
   }
   if (box.empty()) return;
+  const std::size_t cells = std::size_t(box.max[0] - box.min[0] + 1) * std::size_t(box.max[1] - box.min[1] + 1);
+  if (cells > options_.max_cells) {
+    // A loaded map whose band spans kilometres (or a damaged one) would take gigabytes and minutes.
+    throw std::length_error("the slice would need " + std::to_string(cells) + " cells (" +
+                            std::to_string(int((box.max[0] - box.min[0] + 1) * resolution_)) + " x " +
+                            std::to_string(int((box.max[1] - box.min[1] + 1) * resolution_)) +
+                            " m), more than the limit of " + std::to_string(options_.max_cells));
+  }
   ensureCovers(box.min[0], box.min[1], box.max[0], box.max[1]);
-  recompute(box);  // the layers the leaves reach are noted above
+  if (cached_layers) {
+    recompute(box);
+    return;
+  }
+  // Only the columns some leaf reaches: sparse maps far apart cost their leaves, not their area.
+  constexpr std::int8_t kPending = 127;
+  for (const KeyBox& leaf : columns) {
+    for (unsigned ky = leaf.min[1]; ky <= leaf.max[1]; ++ky) {
+      std::int8_t* row = &data_[std::size_t(ky - origin_key_y_) * width_];
+      std::fill(row + (leaf.min[0] - origin_key_x_), row + (leaf.max[0] - origin_key_x_) + 1, kPending);
+    }
+  }
+  for (unsigned ky = box.min[1]; ky <= box.max[1]; ++ky) {
+    std::int8_t* row = &data_[std::size_t(ky - origin_key_y_) * width_];
+    for (unsigned kx = box.min[0]; kx <= box.max[0]; ++kx) {
+      std::int8_t& cell = row[kx - origin_key_x_];
+      if (cell == kPending) cell = columnValue(static_cast<std::uint16_t>(kx), static_cast<std::uint16_t>(ky));
+    }
+  }
 }
 
 }  // namespace octo_slice_mapper

@@ -38,6 +38,11 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
     std::string error;
     if (mapper_.load(options_.map_file, &error)) {
       ROS_INFO("resumed map %s (%zu leaves)", options_.map_file.c_str(), mapper_.tree().getNumLeafNodes());
+      const MapSetCheck set = checkMapSet(mapSetPrefixOf(options_.map_file));
+      if (set.mixed()) {
+        ROS_WARN("~map_file's set is mixed, a save was killed between renaming its files: %s. The map was read "
+                 "from %s alone, which is whole.", set.describe().c_str(), options_.map_file.c_str());
+      }
     } else {
       ROS_ERROR("could not load ~map_file: %s; starting with an empty map", error.c_str());
     }
