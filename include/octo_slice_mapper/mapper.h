@@ -66,7 +66,7 @@ class Mapper {
   // current map is kept and false is returned with the reason.
   bool load(const std::string& path, std::string* error);
   // Writes PREFIX.{bt,ot,pgm,yaml,png}.
-  bool save(const std::string& prefix, std::vector<std::string>* written, std::string* error) const;
+  bool save(const std::string& prefix, std::vector<std::string>* written, std::string* error);
 
   // The global pass over the kept scans (from all-free, or warm from the slice's max-likelihood
   // state). Does not change the map; see applyOptimized().
@@ -83,8 +83,9 @@ class Mapper {
   MapSnapshot optimizationInput() const;
   bool lent() const { return lent_; }
 
-  // The octree, brought up to date with the insertion cache first.
-  const octomap::OcTree& tree() const;
+  // The octree, brought up to date with the insertion cache first: a write to the octree, so not
+  // const (a lent octree is current as lent and is not touched).
+  const octomap::OcTree& tree();
   // The octree as of the last flush (cheap; lags behind the cache).
   const octomap::OcTree& flushedTree() const { return *tree_; }
   const SliceGrid& slice() const { return *slice_; }

@@ -22,6 +22,12 @@ struct Scan {
   double beamAngle(std::size_t i) const { return angle_min + static_cast<double>(i) * angle_increment; }
 };
 
+// A 3D sensor's points in the map frame, with the sensor origin they were seen from.
+struct SensorCloud {
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  std::vector<Eigen::Vector3f> points;
+};
+
 // How one reading is interpreted. Invalid readings carry no information and are counted.
 enum class ReadingKind : std::uint8_t {
   kHit,          // a return inside (range_min, range_max)

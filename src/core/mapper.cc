@@ -81,12 +81,12 @@ bool Mapper::load(const std::string& path, std::string* error) {
   return true;
 }
 
-const octomap::OcTree& Mapper::tree() const {
+const octomap::OcTree& Mapper::tree() {
   if (!lent_) inserter_->flush();  // a lent tree must not change; it is current as lent
   return *tree_;
 }
 
-bool Mapper::save(const std::string& prefix, std::vector<std::string>* written, std::string* error) const {
+bool Mapper::save(const std::string& prefix, std::vector<std::string>* written, std::string* error) {
   return saveMapSet(tree(), gridImageOf(*slice_), prefix, written, error);
 }
 

@@ -24,6 +24,7 @@ struct NodeCounters {
   // can miss a transform that arrives while it adds the message; see PendingMessages).
   std::uint64_t scans_taken_over = 0;
   double last_insert_ms = 0.0;
+  double scan_insert_seconds = 0.0, cloud_insert_seconds = 0.0;  // summed over the inserted ones
   // Longest a scan waited for the map (held by a service taking its snapshot), and longest a
   // service held it: both must stay under one scan period for saving not to stall mapping.
   double max_insert_wait_ms = 0.0;

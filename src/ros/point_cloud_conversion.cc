@@ -95,5 +95,15 @@ void cloudPointsInMap(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry
   }
 }
 
+ScanRejection toCoreCloud(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry3d& sensor_pose, SensorCloud* out) {
+  // Checked before a single byte is read: a layout that declares more than the message holds
+  // must not reach a converter that trusts it.
+  const ScanRejection rejection = checkCloudLayout(msg);
+  if (rejection.rejected()) return rejection;
+  out->origin = sensor_pose.translation();
+  cloudPointsInMap(msg, sensor_pose.cast<float>(), &out->points);
+  return rejection;
+}
+
 }  // namespace ros_adapter
 }  // namespace octo_slice_mapper

@@ -27,5 +27,8 @@ ScanRejection checkCloudLayout(const sensor_msgs::PointCloud2& msg);
 void cloudPointsInMap(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry3f& to_map,
                       std::vector<Eigen::Vector3f>* points);
 
+// Both steps: the layout checked, then the points through `sensor_pose` with the sensor's origin.
+ScanRejection toCoreCloud(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry3d& sensor_pose, SensorCloud* out);
+
 }  // namespace ros_adapter
 }  // namespace octo_slice_mapper

@@ -21,7 +21,7 @@
 #include "bag_scans.h"
 #include "octo_slice_mapper/carmen_log.h"
 #include "octo_slice_mapper/held_out_score.h"
-#include "octo_slice_mapper/mapper.h"
+#include "octo_slice_mapper/mapping_session.h"
 #include "progress_bar.h"
 
 namespace osm = octo_slice_mapper;
@@ -160,7 +160,7 @@ std::string jsonScore(const osm::HeldOutScore& e) {
 }
 
 // Bytes per observed 2D cell (a known slice cell) of the octree and of the slice grid.
-std::string jsonMemory(const osm::Mapper& mapper) {
+std::string jsonMemory(osm::Mapper& mapper) {
   const double cells = std::max<std::size_t>(1, mapper.slice().knownCells());
   const std::size_t octree = mapper.tree().memoryUsage();
   const std::size_t slice = mapper.slice().memoryBytes();
@@ -177,9 +177,12 @@ std::string jsonMemory(const osm::Mapper& mapper) {
 int main(int argc, char** argv) {
   const Args args = parse(argc, argv);
   osm::tools::ProgressBar bar;
-  std::unique_ptr<osm::Mapper> mapper;
+  std::unique_ptr<osm::MappingSession> session;
+  osm::SessionOptions session_options;
+  session_options.warm_start = args.warm_start;
+  session_options.write_optimized_into_map = false;  // nothing reads the map after the pass
   try {
-    mapper = std::make_unique<osm::Mapper>(args.mapper);
+    session = std::make_unique<osm::MappingSession>(args.mapper, session_options);
   } catch (const std::exception& e) {
     std::cerr << "octo_slice_map: " << e.what() << "\n";
     return 2;
@@ -199,7 +202,7 @@ int main(int argc, char** argv) {
       return;
     }
     const auto t0 = Clock::now();
-    const osm::InsertResult result = mapper->insert(scan);
+    const osm::InsertResult result = session->insert(scan);
     insert_seconds += std::chrono::duration<double>(Clock::now() - t0).count();
     if (!result.ok()) {
       skipped_scans["invalid_scan"]++;
@@ -247,7 +250,8 @@ int main(int argc, char** argv) {
     }
     bar.finish();
   }
-  if (mapper->stats().scans_inserted == 0) {
+  osm::Mapper& mapper = session->mapperUnlocked();  // no other thread here
+  if (mapper.stats().scans_inserted == 0) {
     std::cerr << "octo_slice_map: no scan could be inserted from " << source << "\n";
     return 1;
   }
@@ -255,33 +259,26 @@ int main(int argc, char** argv) {
   // What a service of the node would hold the map for: bringing the octree up to date with the
   // insertion cache (here: everything, as nothing read the octree before), then the snapshot.
   auto t0 = Clock::now();
-  mapper->tree();
+  mapper.tree();
   const double flush_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
   t0 = Clock::now();
-  const std::size_t snapshot_leaves = mapper->snapshot(/*with_scans=*/true).tree->getNumLeafNodes();
-  mapper->endSnapshot();
+  const std::size_t snapshot_leaves = mapper.snapshot(/*with_scans=*/true).tree->getNumLeafNodes();
+  mapper.endSnapshot();
   const double snapshot_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 
-  std::vector<std::string> files;
-  if (!mapper->save(args.out, &files, &error)) {
-    std::cerr << "octo_slice_map: " << error << "\n";
+  const osm::GridImage incremental = osm::gridImageOf(mapper.slice());
+  const osm::SaveOutcome saved =
+      session->save(args.out, args.optimize, [&](const std::string& stage, double f) { bar.update(stage, f); });
+  if (args.optimize) bar.finish();
+  if (!saved.ok) {
+    std::cerr << "octo_slice_map: " << saved.error << "\n";
     return 1;
   }
+  if (!saved.note.empty()) std::cerr << "octo_slice_map: " << saved.note << "\n";
+  const std::vector<std::string>& files = saved.files;
+  const osm::OptimizedMap optimized = saved.optimized.value_or(osm::OptimizedMap());
 
-  const osm::GridImage incremental = osm::gridImageOf(mapper->slice());
-  osm::OptimizedMap optimized;
-  if (args.optimize) {
-    optimized = mapper->optimize(args.warm_start, [&](const std::string& stage, double f) { bar.update(stage, f); });
-    bar.finish();
-    // In the incremental map's frame: the two pictures overlay cell for cell, at the same scale.
-    if (!osm::saveOptimizedSet(mapper->tree(), mapper->slice().bandMinKey(), mapper->slice().bandMaxKey(),
-                               optimized.grid, incremental, args.out, &files, &error)) {
-      std::cerr << "octo_slice_map: " << error << "\n";
-      return 1;
-    }
-  }
-
-  const osm::MapperStats& stats = mapper->stats();
+  const osm::MapperStats& stats = mapper.stats();
   std::ostringstream json;
   json << "{\"input\": " << jsonString(source) << ", \"scans\": " << stats.scans_inserted
        << ", \"held_out_scans\": " << held_out.size() << ", \"beams\": " << beams << ", \"readings\": {";
@@ -293,13 +290,13 @@ int main(int argc, char** argv) {
   bool first = true;
   for (const auto& kv : skipped_scans) json << (first ? "" : ", ") << jsonString(kv.first) << ": " << kv.second, first = false;
   json << "}, \"bad_lines\": " << bad_lines << ", \"log_error\": " << jsonString(end_error)
-       << ", \"resolution\": " << mapper->options().resolution << ", \"voxels\": " << mapper->tree().getNumLeafNodes()
-       << ", \"known_cells\": " << mapper->slice().knownCells()
-       << ", \"memory\": " << jsonMemory(*mapper)
+       << ", \"resolution\": " << mapper.options().resolution << ", \"voxels\": " << mapper.tree().getNumLeafNodes()
+       << ", \"known_cells\": " << mapper.slice().knownCells()
+       << ", \"memory\": " << jsonMemory(mapper)
        << ", \"insert_ms_per_scan\": " << 1000.0 * insert_seconds / stats.scans_inserted
        << ", \"flush_ms\": " << flush_ms << ", \"snapshot_ms\": " << snapshot_ms
        << ", \"snapshot_leaves\": " << snapshot_leaves
-       << ", \"scan_store_mb\": " << mapper->scanStore().memoryBytes() / 1e6;
+       << ", \"scan_store_mb\": " << mapper.scanStore().memoryBytes() / 1e6;
   if (args.optimize) {
     const osm::OptimizeReport& r = optimized.report;
     json << ", \"optimize\": {\"start\": " << (args.warm_start ? "\"incremental\"" : "\"empty\"")

@@ -1,0 +1,104 @@
+// A mapping session as both the node and octo_slice_map run it (issue 20): the Mapper behind one
+// lock, and the workflows around it written once: saving (with or without the global pass),
+// the global pass on request, applying its result to the map, reset and load, and the input of
+// the background pass. Insertion runs on one thread while a save or a pass runs on another: the
+// slow work happens on a snapshot outside the lock (the octree lent, see MapSnapshot).
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "octo_slice_mapper/mapper.h"
+#include "octo_slice_mapper/online_optimizer.h"
+
+namespace octo_slice_mapper {
+
+struct SessionOptions {
+  bool optimize_on_save = false;  // every save also runs the global pass, writing PREFIX_optimized.*
+  bool warm_start = true;         // the saves' global pass starts from the incremental map
+  // The global pass's result is written into the octree's slice band (so .bt export carries it).
+  bool write_optimized_into_map = true;
+};
+
+struct SaveOutcome {
+  bool ok = false;
+  std::string error;
+  std::vector<std::string> files;          // written
+  std::optional<OptimizedMap> optimized;   // when the save ran the global pass
+  std::string note;                        // e.g. why a requested global pass was skipped
+};
+
+class MappingSession {
+ public:
+  MappingSession(const MapperOptions& mapper, const SessionOptions& session);
+
+  // Runs f(Mapper&) under the session's lock: insertion and reading the slice go through here.
+  template <typename F>
+  decltype(auto) withMapper(F&& f) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return f(mapper_);
+  }
+  template <typename F>
+  decltype(auto) withMapper(F&& f) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return f(static_cast<const Mapper&>(mapper_));
+  }
+  // Inserts under the lock; `waited_ms` gets how long the lock took.
+  InsertResult insert(const Scan& scan, double* waited_ms = nullptr);
+  InsertResult insert(const SensorCloud& cloud, double* waited_ms = nullptr);
+
+  // Writes PREFIX.{bt,ot,pgm,yaml,png}; `with_global_pass` (the node gives optimize_on_save)
+  // also PREFIX_optimized.*, and the result goes into the map when
+  // `write_optimized_into_map`. PREFIX is used as given (resolve it first, see save_path.h).
+  SaveOutcome save(const std::string& prefix, bool with_global_pass, const ProgressFn& progress = {});
+  // The global pass over the kept scans, applied to the map (if write_optimized_into_map);
+  // nothing when no scans are kept.
+  std::optional<OptimizedMap> optimize(bool warm_start, const ProgressFn& progress = {});
+  void reset();
+  bool load(const std::string& path, std::string* error);
+
+  // Changes with every change to the map by scans, clouds, reset, load and optimize(); not by
+  // what a save's own global pass writes back (so a save on shutdown can tell it would repeat
+  // the last one).
+  std::uint64_t version() const;
+  // Changes with every change at all (for publishers).
+  std::uint64_t changes() const;
+  // True when `prefix` was the last save's and the map has not changed since.
+  bool savedAlready(const std::string& prefix) const;
+  // The background pass's input when the map changed since the last one was taken (its
+  // newest_stamp: the newest inserted scan's).
+  std::optional<OnlineOptimizerInput> onlinePassInput();
+  // The longest a save, pass, reset or input copy held the lock (ms): scans waited that long.
+  double longestLockMs() const;
+
+  // The mapper without the lock: only for a single-threaded user (the offline tool, tests).
+  Mapper& mapperUnlocked() { return mapper_; }
+
+  const SessionOptions& options() const { return options_; }
+  const MapperOptions& mapperOptions() const { return mapper_options_; }
+
+ private:
+  class Lock;  // the lock, timed
+  // Writes the pass's result into the map in strips of rows, each under the lock on its own, so
+  // that scans are inserted in between.
+  void applyOptimized(const GridImage& grid);
+  InsertResult recordInsert(InsertResult result);
+
+  const SessionOptions options_;
+  const MapperOptions mapper_options_;
+  mutable std::mutex mutex_;  // guards everything below
+  Mapper mapper_;
+  std::mutex one_at_a_time_;  // one save / optimize / reset / load at a time
+  std::uint64_t version_ = 0, changes_ = 0;
+  std::string last_saved_prefix_;
+  std::uint64_t last_saved_version_ = 0;
+  std::uint64_t online_input_version_ = ~std::uint64_t{0};
+  double newest_stamp_ = 0.0;  // of the scans inserted
+  double longest_lock_ms_ = 0.0;
+};
+
+}  // namespace octo_slice_mapper

@@ -1,0 +1,179 @@
+#include "octo_slice_mapper/mapping_session.h"
+
+#include <algorithm>
+#include <utility>
+
+namespace octo_slice_mapper {
+
+// The session's lock for work other than insertion; how long it was held is kept, because every
+// scan arriving meanwhile waited that long.
+class MappingSession::Lock {
+ public:
+  explicit Lock(MappingSession* session)
+      : session_(session), lock_(session->mutex_), since_(std::chrono::steady_clock::now()) {}
+  ~Lock() {
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - since_).count();
+    session_->longest_lock_ms_ = std::max(session_->longest_lock_ms_, ms);
+  }
+  Lock(const Lock&) = delete;
+  Lock& operator=(const Lock&) = delete;
+
+ private:
+  MappingSession* session_;
+  std::lock_guard<std::mutex> lock_;
+  std::chrono::steady_clock::time_point since_;
+};
+
+MappingSession::MappingSession(const MapperOptions& mapper, const SessionOptions& session)
+    : options_(session), mapper_options_(mapper), mapper_(mapper) {}
+
+InsertResult MappingSession::recordInsert(InsertResult result) {
+  if (result.ok() && result.voxels_updated > 0) version_++, changes_++;
+  return result;
+}
+
+InsertResult MappingSession::insert(const Scan& scan, double* waited_ms) {
+  const auto start = std::chrono::steady_clock::now();
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (waited_ms) *waited_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  InsertResult result = recordInsert(mapper_.insert(scan));
+  if (result.ok()) newest_stamp_ = scan.stamp;  // the latest, not the largest: a bag may loop
+  return result;
+}
+
+InsertResult MappingSession::insert(const SensorCloud& cloud, double* waited_ms) {
+  const auto start = std::chrono::steady_clock::now();
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (waited_ms) *waited_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return recordInsert(mapper_.insertPoints(cloud.origin, cloud.points));
+}
+
+SaveOutcome MappingSession::save(const std::string& prefix, bool with_global_pass, const ProgressFn& progress) {
+  std::lock_guard<std::mutex> one(one_at_a_time_);
+  MapSnapshot snapshot;
+  GlobalOptimizerOptions pass_options;
+  double resolution = 0.0;
+  std::uint64_t saved_version = 0;
+  {
+    Lock lock(this);
+    snapshot = mapper_.snapshot(with_global_pass);
+    pass_options = mapper_.options().optimizer;
+    resolution = mapper_.options().resolution;
+    saved_version = version_;
+  }
+  // Scans keep going into the insertion cache while the octree is lent; the loan ends on every way out.
+  struct Loan {
+    MappingSession* session;
+    ~Loan() {
+      Lock lock(session);
+      session->mapper_.endSnapshot();
+    }
+  };
+  SaveOutcome out;
+  {
+    Loan loan{this};
+    out.ok = saveMapSet(*snapshot.tree, snapshot.slice, prefix, &out.files, &out.error);
+    if (out.ok && with_global_pass && snapshot.scans.empty()) {
+      out.note = "global pass skipped: no kept scans (keep_scans is false, or nothing inserted)";
+    } else if (out.ok && with_global_pass) {
+      out.optimized = optimizeScans(snapshot.scans, pass_options, resolution,
+                                    options_.warm_start ? &snapshot.slice : nullptr, progress);
+      out.ok = saveOptimizedSet(*snapshot.tree, snapshot.band_lo, snapshot.band_hi, out.optimized->grid,
+                                snapshot.slice, prefix, &out.files, &out.error);
+    }
+  }
+  if (out.optimized) applyOptimized(out.optimized->grid);
+  if (out.ok) {
+    Lock lock(this);
+    last_saved_prefix_ = prefix;
+    last_saved_version_ = saved_version;
+  }
+  return out;
+}
+
+std::optional<OptimizedMap> MappingSession::optimize(bool warm_start, const ProgressFn& progress) {
+  std::lock_guard<std::mutex> one(one_at_a_time_);
+  MapSnapshot input;
+  GlobalOptimizerOptions pass_options;
+  double resolution = 0.0;
+  {
+    // The scans and the slice only: the pass needs neither the octree nor a flush of the cache.
+    Lock lock(this);
+    input = mapper_.optimizationInput();
+    pass_options = mapper_.options().optimizer;
+    resolution = mapper_.options().resolution;
+  }
+  if (input.scans.empty()) return std::nullopt;
+  OptimizedMap optimized =
+      optimizeScans(input.scans, pass_options, resolution, warm_start ? &input.slice : nullptr, progress);
+  applyOptimized(optimized.grid);
+  if (options_.write_optimized_into_map) {
+    Lock lock(this);
+    version_++;
+  }
+  return optimized;
+}
+
+void MappingSession::applyOptimized(const GridImage& grid) {
+  if (!options_.write_optimized_into_map) return;
+  const int rows = std::max(1, 4096 / std::max(1, grid.width));
+  for (int j0 = 0; j0 < grid.height; j0 += rows) {
+    GridImage strip;  // not a copy of `grid`: that would copy all its cells once per strip
+    strip.width = grid.width;
+    strip.resolution = grid.resolution;
+    strip.origin_x = grid.origin_x;
+    strip.height = std::min(rows, grid.height - j0);
+    strip.origin_y = grid.origin_y + j0 * grid.resolution;
+    strip.cells.assign(grid.cells.begin() + std::size_t(j0) * grid.width,
+                       grid.cells.begin() + std::size_t(j0 + strip.height) * grid.width);
+    Lock lock(this);
+    mapper_.applyOptimized(strip);
+    changes_++;
+  }
+}
+
+void MappingSession::reset() {
+  std::lock_guard<std::mutex> one(one_at_a_time_);
+  Lock lock(this);
+  mapper_.reset();
+  newest_stamp_ = 0.0;
+  version_++, changes_++;
+}
+
+bool MappingSession::load(const std::string& path, std::string* error) {
+  std::lock_guard<std::mutex> one(one_at_a_time_);
+  Lock lock(this);
+  if (!mapper_.load(path, error)) return false;
+  version_++, changes_++;
+  return true;
+}
+
+std::uint64_t MappingSession::version() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return version_;
+}
+
+std::uint64_t MappingSession::changes() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return changes_;
+}
+
+bool MappingSession::savedAlready(const std::string& prefix) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return prefix == last_saved_prefix_ && version_ == last_saved_version_;
+}
+
+std::optional<OnlineOptimizerInput> MappingSession::onlinePassInput() {
+  Lock lock(this);
+  if (version_ == online_input_version_ || mapper_.scanStore().scans().empty()) return std::nullopt;
+  online_input_version_ = version_;
+  MapSnapshot copy = mapper_.optimizationInput();
+  return OnlineOptimizerInput{std::move(copy.scans), std::move(copy.slice), version_, newest_stamp_};
+}
+
+double MappingSession::longestLockMs() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return longest_lock_ms_;
+}
+
+}  // namespace octo_slice_mapper

@@ -1,0 +1,61 @@
+#include "ros/map_publisher.h"
+
+#include <map_msgs/OccupancyGridUpdate.h>
+#include <nav_msgs/MapMetaData.h>
+#include <nav_msgs/OccupancyGrid.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include "ros/map_conversion.h"
+
+namespace octo_slice_mapper {
+namespace ros_adapter {
+
+MapPublisher::MapPublisher(ros::NodeHandle nh, ros::NodeHandle pnh, std::string frame_id, bool publish_markers)
+    : frame_id_(std::move(frame_id)), publish_markers_(publish_markers) {
+  map_pub_ = nh.advertise<nav_msgs::OccupancyGrid>("map", 1, true);
+  metadata_pub_ = nh.advertise<nav_msgs::MapMetaData>("map_metadata", 1, true);
+  // What each scan changed, right after it is inserted (rviz's Map display reads map_updates).
+  updates_pub_ = nh.advertise<map_msgs::OccupancyGridUpdate>("map_updates", 100);
+  markers_pub_ = pnh.advertise<visualization_msgs::MarkerArray>("occupied_cells", 1, true);
+  optimized_pub_ = pnh.advertise<nav_msgs::OccupancyGrid>("optimized_map", 1, true);
+}
+
+void MapPublisher::publishChange(MappingSession& session, const KeyBox& touched, const ros::Time& stamp) {
+  if (touched.empty()) return;
+  map_msgs::OccupancyGridUpdate update;
+  bool send_full = false, send_update = false;
+  session.withMapper([&](const Mapper& mapper) {
+    send_full = mapper.slice().geometry() != published_geometry_;
+    send_update = !send_full && toOccupancyGridUpdate(mapper.slice(), touched, frame_id_, stamp, &update);
+  });
+  if (send_full) publishFull(session, stamp, /*with_markers=*/false);
+  if (send_update) updates_pub_.publish(update);
+}
+
+void MapPublisher::publishFull(MappingSession& session, const ros::Time& stamp, bool with_markers) {
+  nav_msgs::OccupancyGrid grid;
+  visualization_msgs::MarkerArray markers;
+  published_changes_ = session.changes();  // before the copy: a change during it is sent again next time
+  const bool markers_wanted = with_markers && publish_markers_ && markers_pub_.getNumSubscribers() > 0;
+  session.withMapper([&](Mapper& mapper) {  // the markers' tree() flushes the insertion cache
+    published_geometry_ = mapper.slice().geometry();
+    toOccupancyGrid(mapper.slice(), frame_id_, stamp, &grid);
+    if (markers_wanted) markers = occupiedVoxelMarkers(mapper.tree(), frame_id_, stamp);
+  });
+  map_pub_.publish(grid);
+  metadata_pub_.publish(grid.info);
+  if (!markers.markers.empty()) markers_pub_.publish(markers);
+}
+
+void MapPublisher::publishIfChanged(MappingSession& session, const ros::Time& stamp) {
+  if (session.changes() != published_changes_) publishFull(session, stamp, /*with_markers=*/true);
+}
+
+void MapPublisher::publishOptimized(const GridImage& grid, double slice_min_z) {
+  nav_msgs::OccupancyGrid msg;
+  toOccupancyGrid(grid, slice_min_z, frame_id_, ros::Time::now(), &msg);
+  if (ros::ok()) optimized_pub_.publish(msg);
+}
+
+}  // namespace ros_adapter
+}  // namespace octo_slice_mapper
