@@ -1,4 +1,5 @@
-// ROS parameters -> core options structs. Every parameter and its default is listed in the README.
+// ROS parameters -> core options structs, from the option tables. Every parameter and its default
+// is listed in the README (test/parameter_table_test.cc checks it).
 #pragma once
 
 #include <ros/node_handle.h>
@@ -6,6 +7,7 @@
 #include <string>
 
 #include "octo_slice_mapper/mapper.h"
+#include "octo_slice_mapper/option_table.h"
 
 namespace octo_slice_mapper {
 namespace ros_adapter {
@@ -27,6 +29,11 @@ struct NodeOptions {
   double online_optimize_period = 1.0;   // s (wall) between looks for a changed map to optimize
 };
 
+// The node's own options, named once like the mapper's (option_table.h); maps_dir's default is
+// the package's maps/ folder.
+const std::vector<OptionSpec<NodeOptions>>& nodeOptionTable();
+
+// Every option of both tables read as a private parameter.
 MapperOptions readMapperOptions(const ros::NodeHandle& pnh);
 NodeOptions readNodeOptions(const ros::NodeHandle& pnh);
 

@@ -18,31 +18,19 @@
 #include <sstream>
 #include <string>
 
+#include <CLI/CLI.hpp>
+
 #include "bag_scans.h"
 #include "octo_slice_mapper/carmen_log.h"
 #include "octo_slice_mapper/held_out_score.h"
 #include "octo_slice_mapper/mapping_session.h"
+#include "octo_slice_mapper/option_table.h"
 #include "progress_bar.h"
 
 namespace osm = octo_slice_mapper;
 using Clock = std::chrono::steady_clock;
 
 namespace {
-
-const char kUsage[] = R"(usage: octo_slice_map LOG [options]
-       octo_slice_map --bag FILE [--scan-topic scan] [--fixed-frame odom] [options]
-input:  LOG is a CARMEN log (.log/.clf, plain or .gz): FLASER, RLASER, ROBOTLASER1 records
-output: --out PREFIX            (default: the package's maps/<log name>)
-map:    --resolution M (0.05)  --max-range M (0 = sensor's)  --slice-min-z M (0.16)  --slice-max-z M (0.36)
-        --laser-z M (0.26, height given to 2D log scans)  --clamp-min P (0.003)  --clamp-max P (0.997)
-model:  --beam-opening-angle RAD (0.0044)  --cone-covers-angle-step  --sigma-base M  --sigma-per-meter M
-        --p-free P (0.4)  --p-occupied P (0.75)  --no-return-clear M (0)  --combine sum|occupied_wins
-global: --optimize (from the incremental map)  --cold-start (from all-free, the lab's start)  --max-sweeps N (100)
-        --z-hit W (0.83)  --z-rand W (0.15)  --z-miss W (0.02)  --forward-sigma-base M (0.01)
-        --forward-sigma-per-meter M (0.005)
-        --holdout-every N (keep every Nth scan from index 5 out of the maps; score both maps on
-        them as exported: each held-out return cast through the .pgm's occupied cells)
-)";
 
 struct Args {
   std::string log, bag, scan_topic = "scan", fixed_frame = "odom", out;
@@ -52,87 +40,80 @@ struct Args {
   osm::CarmenLogOptions carmen;
 };
 
-double number(const std::string& flag, const char* text) {
-  char* end = nullptr;
-  const double v = std::strtod(text, &end);
-  if (end == text || *end != '\0' || !std::isfinite(v)) {
-    std::cerr << "octo_slice_map: " << flag << " needs a number, got '" << text << "'\n";
-    std::exit(2);
-  }
-  return v;
-}
+// The names the tool had before the option table named every option once; kept for scripts.
+const std::map<std::string, std::string> kOldFlags = {{"no_return_clear_distance", "--no-return-clear"},
+                                                      {"evidence_combining", "--combine"},
+                                                      {"forward_z_hit", "--z-hit"},
+                                                      {"forward_z_rand", "--z-rand"},
+                                                      {"forward_z_miss", "--z-miss"}};
 
-Args parse(int argc, char** argv) {
-  Args a;
-  // Nobody reads the octree until the end: one flush then writes each voxel once, instead of
-  // rewriting the voxels that keep changing every 20 000 updates (Intel: 0.69 -> 0.56 ms/scan).
-  a.mapper.max_unflushed_voxels = std::size_t{1} << 26;
-  osm::InverseSensorModelOptions& m = a.mapper.insert.model;
-  std::map<std::string, double*> numbers = {
-      {"--resolution", &a.mapper.resolution},       {"--max-range", &a.mapper.insert.max_range},
-      {"--slice-min-z", &a.mapper.slice.min_z},     {"--slice-max-z", &a.mapper.slice.max_z},
-      {"--laser-z", &a.carmen.laser_z},             {"--clamp-min", &a.mapper.clamp_min},
-      {"--clamp-max", &a.mapper.clamp_max},         {"--beam-opening-angle", &m.beam_opening_angle},
-      {"--sigma-base", &m.sigma_base},              {"--sigma-per-meter", &m.sigma_per_meter},
-      {"--p-free", &m.p_free},                      {"--p-occupied", &m.p_occupied},
-      {"--no-return-clear", &m.no_return_clear_distance},
-      {"--z-hit", &a.mapper.optimizer.model.z_hit},    {"--z-rand", &a.mapper.optimizer.model.z_rand},
-      {"--z-miss", &a.mapper.optimizer.model.z_miss},  {"--forward-sigma-base", &a.mapper.optimizer.model.sigma_base},
-      {"--forward-sigma-per-meter", &a.mapper.optimizer.model.sigma_per_meter}};
-  std::map<std::string, std::string*> strings = {
-      {"--bag", &a.bag}, {"--scan-topic", &a.scan_topic}, {"--fixed-frame", &a.fixed_frame}, {"--out", &a.out}};
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    const bool has_value = i + 1 < argc;
-    if (arg == "-h" || arg == "--help") {
-      std::cout << kUsage;
-      std::exit(0);
-    } else if (arg == "--optimize") {
-      a.optimize = true;
-    } else if (arg == "--cone-covers-angle-step") {
-      m.cone_covers_angle_step = true;
-    } else if (arg == "--combine" && has_value) {
-      const std::string how = argv[++i];
-      if (how != "sum" && how != "occupied_wins") {
-        std::cerr << "octo_slice_map: --combine takes sum or occupied_wins, got '" << how << "'\n";
-        std::exit(2);
-      }
-      a.mapper.insert.combining = how == "sum" ? osm::EvidenceCombining::kSum : osm::EvidenceCombining::kOccupiedWins;
-    } else if (arg == "--warm-start") {  // the default start; kept for scripts that name it
-      a.optimize = a.warm_start = true;
-    } else if (arg == "--cold-start") {
-      a.optimize = true;
-      a.warm_start = false;
-    } else if (arg == "--max-sweeps" && has_value) {
-      a.mapper.optimizer.max_sweeps = static_cast<int>(number(arg, argv[++i]));
-    } else if (arg == "--holdout-every" && has_value) {
-      a.holdout_every = static_cast<int>(number(arg, argv[++i]));
-    } else if (numbers.count(arg) && has_value) {
-      *numbers[arg] = number(arg, argv[++i]);
-    } else if (strings.count(arg) && has_value) {
-      *strings[arg] = argv[++i];
-    } else if (arg[0] != '-' && a.log.empty()) {
-      a.log = arg;
+// Every mapper option of the table as --name-with-dashes; booleans as a flag and its --no- form.
+void addMapperOptions(CLI::App* app, osm::MapperOptions* options) {
+  for (const auto& spec : osm::mapperOptionTable()) {
+    std::string names = osm::optionFlag(spec.name);
+    const auto old = kOldFlags.find(spec.name);
+    if (old != kOldFlags.end()) names += "," + old->second;
+    std::string doc = spec.doc;
+    if (*spec.unit) doc += " (" + std::string(spec.unit) + ")";
+    const osm::OptionField field = spec.field(*options);
+    if (auto* b = std::get_if<bool*>(&field)) {
+      app->add_flag(names + ",!--no-" + osm::optionFlag(spec.name).substr(2), **b, doc + " [" + (**b ? "on" : "off") + "]");
+    } else if (auto* c = std::get_if<osm::EvidenceCombining*>(&field)) {
+      osm::EvidenceCombining* combining = *c;
+      app->add_option_function<std::string>(
+             names, [combining](const std::string& name) { osm::evidenceCombiningFromName(name, combining); }, doc)
+          ->check(CLI::IsMember({"sum", "occupied_wins"}))
+          ->default_str(osm::optionValueText(field));
     } else {
-      std::cerr << "octo_slice_map: unknown or incomplete option '" << arg << "'\n" << kUsage;
-      std::exit(2);
+      std::visit([&](auto* value) { app->add_option(names, *value, doc)->default_str(osm::optionValueText(field)); },
+                 field);
     }
   }
-  if (a.log.empty() == a.bag.empty()) {
-    std::cerr << "octo_slice_map: give either a CARMEN log or --bag FILE\n" << kUsage;
-    std::exit(2);
+}
+
+// False (and the exit code in `code`) when the program should stop: --help or a bad command line.
+bool parse(int argc, char** argv, Args* a, int* code) {
+  // Nobody reads the octree until the end: one flush then writes each voxel once, instead of
+  // rewriting the voxels that keep changing every 20 000 updates (Intel: 0.69 -> 0.56 ms/scan).
+  a->mapper.max_unflushed_voxels = std::size_t{1} << 26;
+  CLI::App app{"octo_slice_map: offline mapping of a recorded CARMEN log or rosbag. Writes PREFIX.{bt,ot,pgm,yaml,png} "
+               "(and PREFIX_optimized.* with --optimize) and prints a one-line JSON summary."};
+  app.add_option("log", a->log, "CARMEN log (.log/.clf, plain or .gz): FLASER, RLASER, ROBOTLASER1 records");
+  app.add_option("--bag", a->bag, "a rosbag instead of a log");
+  app.add_option("--scan-topic", a->scan_topic, "the bag's LaserScan topic")->capture_default_str();
+  app.add_option("--fixed-frame", a->fixed_frame, "the bag's fixed frame")->capture_default_str();
+  app.add_option("--out", a->out, "output prefix (default: the package's maps/<log name>)");
+  app.add_option("--laser-z", a->carmen.laser_z, "height given to 2D log scans (m)")->capture_default_str();
+  app.add_flag("--optimize", a->optimize, "also run the global pass, from the incremental map");
+  app.add_flag_callback("--warm-start", [a] { a->optimize = a->warm_start = true; }, "the default start; kept for scripts");
+  app.add_flag_callback("--cold-start", [a] { a->optimize = true, a->warm_start = false; },
+                        "the global pass from all-free (the lab's start)");
+  app.add_option("--holdout-every", a->holdout_every,
+                 "keep every Nth scan from index 5 out of the maps; score both maps on them as exported")
+      ->check(CLI::NonNegativeNumber);
+  addMapperOptions(&app, &a->mapper);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    *code = app.exit(e) == 0 ? 0 : 2;
+    return false;
   }
-  if (a.out.empty()) {
-    std::string stem = a.log.empty() ? a.bag : a.log;
+  if (a->log.empty() == a->bag.empty()) {
+    std::cerr << "octo_slice_map: give either a CARMEN log or --bag FILE (--help lists the options)\n";
+    *code = 2;
+    return false;
+  }
+  if (a->out.empty()) {
+    std::string stem = a->log.empty() ? a->bag : a->log;
     stem = stem.substr(stem.find_last_of('/') + 1);
     for (const char* ext : {".gz", ".log", ".clf", ".bag"}) {
       const std::string e = ext;
       if (stem.size() > e.size() && stem.compare(stem.size() - e.size(), e.size(), e) == 0) stem.resize(stem.size() - e.size());
     }
     const std::string package = ros::package::getPath("octo_slice_mapper");
-    a.out = package.empty() ? stem : package + "/maps/" + stem;
+    a->out = package.empty() ? stem : package + "/maps/" + stem;
   }
-  return a;
+  return true;
 }
 
 double peakRssMb() {
@@ -175,7 +156,10 @@ std::string jsonMemory(osm::Mapper& mapper) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const Args args = parse(argc, argv);
+  Args parsed;
+  int code = 0;
+  if (!parse(argc, argv, &parsed, &code)) return code;
+  const Args& args = parsed;
   osm::tools::ProgressBar bar;
   std::unique_ptr<osm::MappingSession> session;
   osm::SessionOptions session_options;

@@ -1,0 +1,96 @@
+#include "octo_slice_mapper/option_table.h"
+
+#include <cstdio>
+
+namespace octo_slice_mapper {
+
+const std::vector<OptionSpec<MapperOptions>>& mapperOptionTable() {
+  using O = MapperOptions;
+  static const std::vector<OptionSpec<MapperOptions>> table = {
+      {"resolution", "m", "octree leaf size", [](O& o) -> OptionField { return &o.resolution; }},
+      {"clamp_min", "", "OctoMap's lower clamping bound (probability)", [](O& o) -> OptionField { return &o.clamp_min; }},
+      {"clamp_max", "", "OctoMap's upper clamping bound (probability)", [](O& o) -> OptionField { return &o.clamp_max; }},
+      {"max_range", "m", "returns beyond are cut: cleared up to it, nothing marked (0 = the sensor's range_max)",
+       [](O& o) -> OptionField { return &o.insert.max_range; }},
+      {"inf_is_no_return", "", "REP 117: +inf is a no-return, -inf too close, NaN invalid",
+       [](O& o) -> OptionField { return &o.insert.readings.inf_is_no_return; }},
+      {"evidence_combining", "", "how a scan's beams combine per voxel: sum or occupied_wins",
+       [](O& o) -> OptionField { return &o.insert.combining; }},
+      {"beam_opening_angle", "rad", "full cone angle of one beam",
+       [](O& o) -> OptionField { return &o.insert.model.beam_opening_angle; }},
+      {"cone_covers_angle_step", "", "widen every cone to the scan's angle step",
+       [](O& o) -> OptionField { return &o.insert.model.cone_covers_angle_step; }},
+      {"cone_taper_fraction", "", "outer share of the half-angle over which evidence fades",
+       [](O& o) -> OptionField { return &o.insert.model.cone_taper_fraction; }},
+      {"sigma_base", "m", "range std. dev. at 0 m", [](O& o) -> OptionField { return &o.insert.model.sigma_base; }},
+      {"sigma_per_meter", "", "range std. dev. growth per metre",
+       [](O& o) -> OptionField { return &o.insert.model.sigma_per_meter; }},
+      {"sigma_angle_gain", "", "sigma grows by up to this factor towards the cone's edge",
+       [](O& o) -> OptionField { return &o.insert.model.sigma_angle_gain; }},
+      {"p_free", "", "probability in the free valley", [](O& o) -> OptionField { return &o.insert.model.p_free; }},
+      {"p_occupied", "", "probability of a voxel holding the whole occupied peak",
+       [](O& o) -> OptionField { return &o.insert.model.p_occupied; }},
+      {"prior", "", "prior occupancy, subtracted from every update", [](O& o) -> OptionField { return &o.insert.model.prior; }},
+      {"no_return_clear_distance", "m", "no-returns clear space up to here (0 = ignore them)",
+       [](O& o) -> OptionField { return &o.insert.model.no_return_clear_distance; }},
+      {"slice_min_z", "m", "lower end of the z band projected into the slice", [](O& o) -> OptionField { return &o.slice.min_z; }},
+      {"slice_max_z", "m", "upper end of the z band", [](O& o) -> OptionField { return &o.slice.max_z; }},
+      {"keep_scans", "", "keep scans for the global pass", [](O& o) -> OptionField { return &o.keep_scans; }},
+      {"keyframe_min_distance", "m", "keep a scan only after the laser moved this much",
+       [](O& o) -> OptionField { return &o.scan_store.min_distance; }},
+      {"keyframe_min_rotation", "rad", "... or turned this much", [](O& o) -> OptionField { return &o.scan_store.min_rotation; }},
+      {"max_kept_scans", "", "bound of the scan store", [](O& o) -> OptionField { return &o.scan_store.max_scans; }},
+      {"revisit_cell", "m", "a scan taken within this of a kept one (and revisit_angle) is not kept",
+       [](O& o) -> OptionField { return &o.scan_store.revisit_cell; }},
+      {"revisit_angle", "rad", "heading sector of a revisit", [](O& o) -> OptionField { return &o.scan_store.revisit_angle; }},
+      {"forward_z_hit", "", "forward model: weight of the Gaussian around the expected range",
+       [](O& o) -> OptionField { return &o.optimizer.model.z_hit; }},
+      {"forward_z_rand", "", "forward model: weight of random readings", [](O& o) -> OptionField { return &o.optimizer.model.z_rand; }},
+      {"forward_z_miss", "", "forward model: weight of max-range readings", [](O& o) -> OptionField { return &o.optimizer.model.z_miss; }},
+      {"forward_sigma_base", "m", "forward model: range noise at 0 m",
+       [](O& o) -> OptionField { return &o.optimizer.model.sigma_base; }},
+      {"forward_sigma_per_meter", "", "forward model: range noise growth per metre",
+       [](O& o) -> OptionField { return &o.optimizer.model.sigma_per_meter; }},
+      {"forward_trace_sigmas", "", "forward model: a cell this many sigmas beyond a return cannot explain it",
+       [](O& o) -> OptionField { return &o.optimizer.model.trace_sigmas; }},
+      {"forward_beam_opening_angle", "rad", "global pass: beam cone (0 = a thin beam along its axis)",
+       [](O& o) -> OptionField { return &o.optimizer.beam_opening_angle; }},
+      {"max_sweeps", "", "global pass: at most this many sweeps", [](O& o) -> OptionField { return &o.optimizer.max_sweeps; }},
+  };
+  return table;
+}
+
+bool evidenceCombiningFromName(const std::string& name, EvidenceCombining* out) {
+  if (name == "sum") *out = EvidenceCombining::kSum;
+  else if (name == "occupied_wins") *out = EvidenceCombining::kOccupiedWins;
+  else return false;
+  return true;
+}
+
+const char* evidenceCombiningName(EvidenceCombining combining) {
+  return combining == EvidenceCombining::kSum ? "sum" : "occupied_wins";
+}
+
+std::string optionValueText(const OptionField& field) {
+  struct Text {
+    std::string operator()(const double* v) const {
+      char s[32];
+      std::snprintf(s, sizeof s, "%g", *v);
+      return s;
+    }
+    std::string operator()(const bool* v) const { return *v ? "true" : "false"; }
+    std::string operator()(const int* v) const { return std::to_string(*v); }
+    std::string operator()(const std::size_t* v) const { return std::to_string(*v); }
+    std::string operator()(const std::string* v) const { return *v; }
+    std::string operator()(const EvidenceCombining* v) const { return evidenceCombiningName(*v); }
+  };
+  return std::visit(Text(), field);
+}
+
+std::string optionFlag(const char* name) {
+  std::string flag = std::string("--") + name;
+  for (char& c : flag) c = c == '_' ? '-' : c;
+  return flag;
+}
+
+}  // namespace octo_slice_mapper
