@@ -67,3 +67,45 @@ TEST(OctreeBatchUpdate, SimulatedScansMatchTheReference) {
   inserter.flush();
   expectSameTree(fast, reference);
 }
+
+// A scan tilted by a degree (real odometry's pitch and roll, issue 21) reaches a few layers: its
+// updates go through the layer cache, and the octree is leaf for leaf the reference's. A scan
+// tilted so far that it spans more than kMaxCachedLayersPerScan layers goes into the octree
+// directly, and is right too.
+TEST(OctreeBatchUpdate, TiltedScansMatchTheReferenceOnBothSidesOfTheLayerBound) {
+  const sim::SimulatedSession session(sim::FloorPlan::office(), sim::SessionSpec::officeTour());
+  const std::vector<Scan> level = session.allScans();
+  for (const double degrees : {1.0, 25.0}) {
+    octomap::OcTree fast(0.05), reference(0.05);
+    ScanInserter inserter(&fast, InsertOptions{});
+    ScanInserter reference_inserter(&reference, InsertOptions{});
+    std::size_t most_layers = 0;
+    for (std::size_t i = 0; i < level.size(); i += 8) {
+      Scan scan = level[i];
+      const double sign = (i / 8) % 2 ? 1.0 : -1.0;  // pitch and roll both ways
+      scan.sensor_pose.rotate(Eigen::AngleAxisd(sign * degrees * M_PI / 180.0, Eigen::Vector3d::UnitY()));
+      scan.sensor_pose.rotate(Eigen::AngleAxisd(0.5 * degrees * M_PI / 180.0, Eigen::Vector3d::UnitX()));
+      const InsertResult result = inserter.insert(scan);
+      ASSERT_TRUE(result.ok());
+      most_layers = std::max<std::size_t>(most_layers, result.touched.max[2] - result.touched.min[2] + 1);
+      const double half_angle = reference_inserter.model().halfAngleFor(scan.angle_increment);
+      applyUpdatesOneByOne(&reference, reference_inserter.computeUpdates(scan.sensor_pose.translation(),
+                                                                         reference_inserter.beamsOf(scan, nullptr),
+                                                                         half_angle));
+    }
+    const octomap::OcTreeKey origin = fast.coordToKey(level[0].sensor_pose.translation().x(),
+                                                      level[0].sensor_pose.translation().y(),
+                                                      level[0].sensor_pose.translation().z());
+    if (degrees < 2.0) {
+      EXPECT_GT(most_layers, 1u) << "a 1 degree tilt over 5.6 m crosses layers";
+      EXPECT_LE(most_layers, ScanInserter::kMaxCachedLayersPerScan);
+      EXPECT_NE(inserter.cache().findLayer(origin[2] + 1), nullptr) << "the layers beside the laser's are cached";
+    } else {
+      EXPECT_GT(most_layers, ScanInserter::kMaxCachedLayersPerScan);
+      EXPECT_TRUE(inserter.cache().empty()) << "scans over more layers go into the octree";
+    }
+    inserter.flush();
+    SCOPED_TRACE(std::to_string(degrees) + " degrees");
+    expectSameTree(fast, reference);
+  }
+}

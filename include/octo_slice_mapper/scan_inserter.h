@@ -57,6 +57,10 @@ struct Beam {
 // strongest free one).
 class ScanInserter {
  public:
+  // A scan whose rays span at most this many z layers (a level one, or one tilted by a degree or
+  // two) has its updates cached (LayerCache) layer by layer; one spanning more goes into the octree.
+  static constexpr unsigned kMaxCachedLayersPerScan = 16;
+
   ScanInserter(octomap::OcTree* tree, const InsertOptions& options);
 
   InsertResult insert(const Scan& scan);
@@ -96,8 +100,8 @@ class ScanInserter {
 
  private:
   InsertResult apply(std::vector<KeyUpdate> updates, InsertResult result);
-  InsertResult insertLevel(const Eigen::Vector3d& origin, const std::vector<Beam>& beams, double half_angle,
-                           InsertResult result);
+  InsertResult insertIntoLayers(const Eigen::Vector3d& origin, const std::vector<Beam>& beams, double half_angle,
+                                InsertResult result);
   KeyBox prepareBeams(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
                       const std::vector<Beam>& beams, double tan_half);
   // A scan's combined updates through a hash map, for a box too large for the evidence window.

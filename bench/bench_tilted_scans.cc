@@ -1,0 +1,114 @@
+// bench_tilted_scans: what a real robot's tf does to insertion speed (issue 21). The same
+// simulated session mapped twice in one process: once with level scans (the fast path), once
+// with each scan through a tf chain built like a real robot's: odom -> base_link with the
+// session's x, y, yaw plus IMU-style roll and pitch noise (sigma 0.6 deg, at most 1.1 deg) and a
+// base height that moves by a centimetre or two; base_link -> laser a static mount 0.10 m forward,
+// 0.26 m up, yawed 0.02 rad. The lidar is RPLIDAR-like: 720 beams over 360 deg, 12 m, REP 117
+// (+inf for no return). Prints medians over repetitions (ms per scan) and their ratio.
+//
+//   bench_tilted_scans [--repeats N] [--resolution M]
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "bench_common.h"
+#include "octo_slice_mapper/mapper.h"
+#include "octo_slice_mapper/sim/session.h"
+
+using Clock = std::chrono::steady_clock;
+namespace osm = octo_slice_mapper;
+
+namespace {
+
+// The scans as a REP 117 driver sends them: a reading at range_max is +inf.
+std::vector<osm::Scan> rep117(std::vector<osm::Scan> scans) {
+  for (osm::Scan& s : scans) {
+    for (float& r : s.ranges) {
+      if (r >= s.range_max) r = std::numeric_limits<float>::infinity();
+    }
+  }
+  return scans;
+}
+
+// Each scan's laser pose through a real robot's chain (see the header).
+std::vector<osm::Scan> throughRealTf(std::vector<osm::Scan> scans, const osm::sim::LidarSpec& lidar) {
+  std::mt19937 rng(7);
+  std::normal_distribution<double> tilt(0.0, 0.6 * M_PI / 180.0), height(0.0, 0.01);
+  const double max_tilt = 1.1 * M_PI / 180.0;
+  Eigen::Isometry3d level_mount = Eigen::Isometry3d::Identity();
+  level_mount.translation() = Eigen::Vector3d(lidar.mount_x, 0.0, lidar.mount_z);
+  Eigen::Isometry3d mount = level_mount;
+  mount.rotate(Eigen::AngleAxisd(0.02, Eigen::Vector3d::UnitZ()));
+  for (osm::Scan& s : scans) {
+    const Eigen::Isometry3d base = s.sensor_pose * level_mount.inverse();  // the session's odom -> base_link
+    Eigen::Isometry3d tilted = base;
+    tilted.translation().z() += std::clamp(height(rng), -0.02, 0.02);
+    tilted.rotate(Eigen::AngleAxisd(std::clamp(tilt(rng), -max_tilt, max_tilt), Eigen::Vector3d::UnitX()));
+    tilted.rotate(Eigen::AngleAxisd(std::clamp(tilt(rng), -max_tilt, max_tilt), Eigen::Vector3d::UnitY()));
+    // The mount's yaw turned back in the scan's angles: the same world rays as the level run.
+    s.sensor_pose = tilted * mount;
+    s.angle_min -= 0.02f;
+  }
+  return scans;
+}
+
+double msPerScan(const std::vector<osm::Scan>& scans, double resolution, std::size_t* inserted, double* updates_per_scan) {
+  osm::MapperOptions options;
+  options.resolution = resolution;
+  options.keep_scans = false;
+  osm::Mapper mapper(options);
+  const auto t0 = Clock::now();
+  *inserted = 0;
+  for (const osm::Scan& s : scans) *inserted += mapper.insert(s).ok();
+  mapper.tree();  // what a reader of the octree would wait for
+  const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count() / scans.size();
+  *updates_per_scan = double(mapper.stats().voxel_updates) / scans.size();
+  return ms;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int repeats = 5;
+  double resolution = 0.05;
+  bool tilted_only = false;  // for profiling the tilted path alone
+  for (int i = 1; i < argc; ++i) {
+    if (std::string(argv[i]) == "--tilted-only") tilted_only = true;
+  }
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string arg = argv[i];
+    if (arg == "--repeats") repeats = std::max(1, std::stoi(argv[i + 1]));
+    else if (arg == "--resolution") resolution = std::stod(argv[i + 1]);
+  }
+  osm::sim::SessionSpec spec = osm::sim::SessionSpec::officeTour();
+  spec.lidar.beams = 720;
+  spec.lidar.angle_min = static_cast<float>(-M_PI);
+  spec.lidar.angle_increment = static_cast<float>(2.0 * M_PI / 720.0);
+  spec.lidar.range_max = 12.0f;
+  spec.lidar.spurious_no_return_probability = 0.1;  // glass and black surfaces: +inf
+  const osm::sim::SimulatedSession session(osm::sim::FloorPlan::office(), spec);
+  const std::vector<osm::Scan> level = rep117(session.allScans());
+  const std::vector<osm::Scan> tilted = throughRealTf(level, spec.lidar);
+  std::vector<double> level_ms, tilted_ms;
+  std::size_t level_ok = 0, tilted_ok = 0;
+  double level_updates = 0.0, tilted_updates = 0.0;
+  for (int r = 0; r < repeats; ++r) {
+    level_ms.push_back(tilted_only ? 1.0 : msPerScan(level, resolution, &level_ok, &level_updates));
+    tilted_ms.push_back(msPerScan(tilted, resolution, &tilted_ok, &tilted_updates));
+    std::fprintf(stderr, "\rrepetition %d/%d", r + 1, repeats);
+  }
+  std::fprintf(stderr, "\n");
+  const double a = osm::bench::median(level_ms), b = osm::bench::median(tilted_ms);
+  std::printf("%zu scans of 720 beams (REP 117, 12 m), %.2f m, median of %d\n", level.size(), resolution, repeats);
+  std::printf("level scans:                    %.3f ms/scan (%zu inserted, %.0f voxel updates per scan)\n", a,
+              level_ok, level_updates);
+  std::printf("through a real robot's tf (~1 deg pitch/roll): %.3f ms/scan (%zu inserted, %.0f voxel updates per scan)\n",
+              b, tilted_ok, tilted_updates);
+  std::printf("tilted / level: %.2f\n", b / a);
+  return 0;
+}
