@@ -103,16 +103,42 @@ def cases(bin_dir, work):
         if "play_bag: saved:" not in text or "save on shutdown: skipped" not in text:
             yield name, False, f"the map was not saved by the player, or saved again on shutdown (see {launch_log})"
             continue
+        # A replay that went well ends cleanly: no red "REQUIRED process [player] has died".
+        clean = "play_bag: replay done" in text and "has died" not in text
+        yield f"{name}: clean end", clean, f"the replay did not end cleanly (see {launch_log})"
         for suffix in COMPARED:
             a, b = offline + suffix, os.path.join(work, name + "_ros" + suffix)
             same = os.path.exists(a) and os.path.exists(b) and open(a, "rb").read() == open(b, "rb").read()
             yield f"{name}{suffix}", same, f"{b} differs from {a}"
 
 
+def failed_replay(bin_dir, work):
+    """A replay whose save is refused (outside maps_dir) says so and scripts/replay exits non-zero."""
+    bag = os.path.join(work, "intel.bag")
+    if not os.path.exists(bag):
+        yield "failed replay", False, "no bag from the cases before"
+        return
+    params = os.path.join(work, "failed_params.yaml")
+    with open(params, "w") as f:
+        f.write(f"maps_dir: {work}\n")
+    log = os.path.join(work, "failed_roslaunch.txt")
+    port = free_port()
+    env = dict(os.environ, ROS_MASTER_URI=f"http://localhost:{port}")
+    devel_env = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(bin_dir))), "env.sh")
+    code = run([devel_env, os.path.join(HERE, "..", "scripts", "replay"), bag, "-p", str(port), "save:=../outside",
+                "rate:=" + RATE, "params_file:=" + params], log, env)
+    text = open(log).read()
+    yield ("failed replay: non-zero exit and a clear error", code not in (0, None) and "replay FAILED" in text and
+           "outside maps_dir" in text, f"exit {code!r} (see {log})")
+
+
 def main():
     result_xml, bin_dir = sys.argv[1], sys.argv[2]
     work = tempfile.mkdtemp(prefix="osm_radish_replay_")
-    failures = write_junit("radish_replay", cases(bin_dir, work), result_xml)
+    def all_cases():
+        yield from cases(bin_dir, work)
+        yield from failed_replay(bin_dir, work)
+    failures = write_junit("radish_replay", all_cases(), result_xml)
     if failures:
         print("kept for a look:", work)
     else:
