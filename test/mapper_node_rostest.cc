@@ -21,6 +21,7 @@
 #include <map>
 #include <limits>
 
+#include "octo_slice_mapper/ClearBox.h"
 #include "octo_slice_mapper/Optimize.h"
 #include "octo_slice_mapper/SaveMap.h"
 #include "octo_slice_mapper/map_io.h"
@@ -181,6 +182,25 @@ TEST_F(MapperNodeTest, ResetClearsTheMap) {
   // And it maps again afterwards.
   scan_pub_.publish(scan([](double a) { return wallAt(kWallAhead, a); }));
   ASSERT_TRUE(waitFor([this] { return cellAt(2.11, 0.0) > 50; }, 20.0));
+}
+
+// ~clear_box makes a box unknown again, as octomap_server's clear_bbx; the map outside it stays
+// (issue 21).
+TEST_F(MapperNodeTest, ClearBoxMakesTheBoxUnknown) {
+  publishWall(kWallAhead, 3);
+  ASSERT_TRUE(waitFor([this] { return cellAt(2.11, 0.0) > 50 && cellAt(1.0, 0.0) >= 0; }, 20.0));
+  octo_slice_mapper::ClearBox srv;
+  srv.request.min = {2.0, -0.6, 0.0};
+  srv.request.max = {2.3, 0.6, 0.5};
+  ASSERT_TRUE(ros::service::waitForService("mapper_node/clear_box", 10000));
+  ASSERT_TRUE(ros::service::call("mapper_node/clear_box", srv));
+  ASSERT_TRUE(srv.response.success) << srv.response.message;
+  EXPECT_GT(srv.response.voxels_cleared, 0u);
+  EXPECT_TRUE(waitFor([this] { return cellAt(2.11, 0.0) == -1; }, 20.0)) << "wall cell " << cellAt(2.11, 0.0);
+  EXPECT_GE(cellAt(1.0, 0.0), 0) << "outside the box: still known";
+  srv.request.min = {-1e9, 0.0, 0.0};
+  ASSERT_TRUE(ros::service::call("mapper_node/clear_box", srv));
+  EXPECT_FALSE(srv.response.success) << "a box beyond the octree is refused";
 }
 
 TEST_F(MapperNodeTest, DynamicMapServiceAnswersWithTheCurrentSlice) {

@@ -168,3 +168,117 @@ TEST_F(MappingSessionTest, OnlinePassInputOnlyWhenTheMapChanged) {
 }
 
 }  // namespace
+
+namespace {
+
+// ~clear_box: the voxels inside the box are unknown again, the slice follows, those outside stay,
+// and kept scans whose beams crossed the box are dropped (issue 21).
+TEST_F(MappingSessionTest, ClearBoxMakesTheBoxUnknownAndDropsTheScansThatSawIt) {
+  MappingSession session{MapperOptions(), SessionOptions()};
+  insertAll(&session, 0, scans_->size());
+  const Eigen::Vector3d lo(-1.0, -1.0, -1.0), hi(1.0, 1.0, 1.0);
+  auto known = [&](double x, double y) {
+    return session.withMapper([&](const Mapper& m) { return m.slice().valueAt(x, y) != kUnknownCell; });
+  };
+  // A known cell inside and one outside the box.
+  double in_x = 0.0, in_y = 0.0, out_x = 0.0, out_y = 0.0;
+  bool found_in = false, found_out = false;
+  for (double x = -4.0; x <= 4.0 && !(found_in && found_out); x += 0.05) {
+    for (double y = -4.0; y <= 4.0; y += 0.05) {
+      const bool inside = std::abs(x) < 0.9 && std::abs(y) < 0.9, outside = std::abs(x) > 1.2 || std::abs(y) > 1.2;
+      if (!found_in && inside && known(x, y)) in_x = x, in_y = y, found_in = true;
+      if (!found_out && outside && known(x, y)) out_x = x, out_y = y, found_out = true;
+    }
+  }
+  ASSERT_TRUE(found_in && found_out) << "the session maps around the origin";
+  const std::size_t kept = session.withMapper([](const Mapper& m) { return m.scanStore().scans().size(); });
+  const std::uint64_t version = session.version();
+  Mapper::Cleared cleared;
+  std::string error;
+  ASSERT_TRUE(session.clearBox(lo, hi, &cleared, &error)) << error;
+  EXPECT_GT(cleared.voxels, 0u);
+  EXPECT_GT(cleared.scans, 0u);
+  EXPECT_LT(cleared.scans, kept) << "scans that never saw the box are kept";
+  EXPECT_FALSE(known(in_x, in_y)) << "inside the box: unknown again";
+  EXPECT_TRUE(known(out_x, out_y)) << "outside the box: kept";
+  EXPECT_NE(session.version(), version);
+  session.withMapper([&](Mapper& m) {
+    const octomap::OcTree& tree = m.tree();
+    for (auto it = tree.begin_leafs_bbx(octomap::point3d(-0.95f, -0.95f, -0.95f), octomap::point3d(0.95f, 0.95f, 0.95f));
+         it != tree.end_leafs_bbx(); ++it) {
+      ADD_FAILURE() << "a voxel is left in the box at " << it.getCoordinate();
+      break;
+    }
+    // The slice equals one rebuilt from the tree.
+    SliceGrid rebuilt(tree, m.options().slice);
+    rebuilt.rebuild();
+    EXPECT_EQ(rebuilt.knownCells(), m.slice().knownCells());
+  });
+  // The kept scans left do not cross the box: the global pass leaves it unknown.
+  const std::optional<OptimizedMap> optimized = session.optimize(/*warm_start=*/false);
+  ASSERT_TRUE(optimized);
+  const GridImage& g = optimized->grid;
+  const int i = static_cast<int>(std::floor((in_x - g.origin_x) / g.resolution));
+  const int j = static_cast<int>(std::floor((in_y - g.origin_y) / g.resolution));
+  if (i >= 0 && j >= 0 && i < g.width && j < g.height) EXPECT_EQ(g.at(i, j), kUnknownCell);
+  EXPECT_FALSE(session.clearBox(Eigen::Vector3d(-1e7, 0, 0), hi, &cleared, &error)) << "outside the octree";
+}
+
+}  // namespace
+
+namespace {
+
+// Through pruned leaves: a solid cube of occupied voxels (pruned into big leaves) cut by a box,
+// voxel for voxel: none left inside, all kept outside (OctoMap's deleteNode aborts on this).
+TEST(ClearBox, CutsThroughPrunedLeavesVoxelForVoxel) {
+  octomap::OcTree cube(0.05);
+  for (int n = 0; n < 4; ++n) {
+    for (double x = 0.025; x < 1.6; x += 0.05)
+      for (double y = 0.025; y < 1.6; y += 0.05)
+        for (double z = 0.025; z < 0.8; z += 0.05) cube.updateNode(x, y, z, true, /*lazy_eval=*/true);
+  }
+  cube.updateInnerOccupancy();
+  cube.prune();
+  const std::size_t pruned_leaves = cube.getNumLeafNodes();
+  ASSERT_LT(pruned_leaves, 32u * 32u * 16u) << "the cube is pruned";
+  char tmpl[] = "/tmp/osm_cube_XXXXXX";
+  const std::string path = std::string(::mkdtemp(tmpl)) + "/cube.ot";
+  std::string error;
+  ASSERT_TRUE(saveFullTree(cube, path, &error)) << error;
+  Mapper mapper;
+  ASSERT_TRUE(mapper.load(path, &error)) << error;
+  const Eigen::Vector3d lo(0.31, 0.42, 0.11), hi(0.92, 1.33, 0.58);  // cuts through voxels: whole voxels go
+  const Mapper::Cleared cleared = mapper.clearBox(lo, hi);
+  EXPECT_GT(cleared.voxels, 0u);
+  const octomap::OcTree& tree = mapper.tree();
+  const octomap::OcTreeKey klo = tree.coordToKey(lo.x(), lo.y(), lo.z()), khi = tree.coordToKey(hi.x(), hi.y(), hi.z());
+  std::size_t inside = 0, outside = 0;
+  for (double x = 0.025; x < 1.6; x += 0.05) {
+    for (double y = 0.025; y < 1.6; y += 0.05) {
+      for (double z = 0.025; z < 0.8; z += 0.05) {
+        const octomap::OcTreeKey k = tree.coordToKey(x, y, z);
+        const bool in = k[0] >= klo[0] && k[0] <= khi[0] && k[1] >= klo[1] && k[1] <= khi[1] && k[2] >= klo[2] &&
+                        k[2] <= khi[2];
+        const octomap::OcTreeNode* node = tree.search(k);
+        if (in) {
+          ASSERT_EQ(node, nullptr) << x << " " << y << " " << z;
+          ++inside;
+        } else {
+          ASSERT_NE(node, nullptr) << x << " " << y << " " << z;
+          ASSERT_GT(node->getOccupancy(), 0.9);
+          ++outside;
+        }
+      }
+    }
+  }
+  EXPECT_GT(inside, 100u);
+  EXPECT_GT(outside, 100u);
+  // The tree's own bookkeeping holds: its node count is what a walk finds, and it saves and loads.
+  std::size_t walked = 0;
+  for (auto it = tree.begin_tree(); it != tree.end_tree(); ++it) ++walked;
+  EXPECT_EQ(walked, tree.size());
+  ASSERT_TRUE(saveFullTree(tree, path, &error)) << error;
+  EXPECT_NE(loadTree(path, &error), nullptr) << error;
+}
+
+}  // namespace

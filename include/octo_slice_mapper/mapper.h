@@ -71,6 +71,13 @@ class Mapper {
   // The global pass over the kept scans (from all-free, or warm from the slice's max-likelihood
   // state). Does not change the map; see applyOptimized().
   OptimizedMap optimize(bool warm_start, const ProgressFn& progress = {}) const;
+  // Makes every voxel inside the box (map frame, m) unknown again, as octomap_server's clear_bbx;
+  // the slice follows, and the kept scans with a beam crossing the box are dropped (else the
+  // global pass would bring it back). Refused (std::logic_error) while the octree is lent.
+  struct Cleared {
+    std::size_t voxels = 0, scans = 0;
+  };
+  Cleared clearBox(const Eigen::Vector3d& min, const Eigen::Vector3d& max);
   // Writes an optimized grid into the octree's slice-band voxels and refreshes the slice.
   void applyOptimized(const GridImage& grid);
   // Brings the octree up to date and lends it (see MapSnapshot) until endSnapshot(). Reading the

@@ -60,6 +60,8 @@ class MappingSession {
   std::optional<OptimizedMap> optimize(bool warm_start, const ProgressFn& progress = {});
   void reset();
   bool load(const std::string& path, std::string* error);
+  // Mapper::clearBox, waiting for a running save; false with the reason for a box out of range.
+  bool clearBox(const Eigen::Vector3d& min, const Eigen::Vector3d& max, Mapper::Cleared* cleared, std::string* error);
 
   // Changes with every change to the map by scans, clouds, reset, load and optimize(); not by
   // what a save's own global pass writes back (so a save on shutdown can tell it would repeat

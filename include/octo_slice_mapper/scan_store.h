@@ -3,6 +3,7 @@
 
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <functional>
 #include <unordered_set>
 #include <vector>
 
@@ -43,6 +44,8 @@ class ScanStore {
   // True when kept.
   bool add(const Scan& scan);
   void clear();
+  // Drops the kept scans `drop` is true for; returns how many.
+  std::size_t removeIf(const std::function<bool(const StoredScan&)>& drop);
   const std::vector<StoredScan>& scans() const { return scans_; }
   std::size_t memoryBytes() const;
   std::uint64_t skippedByKeyframe() const { return skipped_; }

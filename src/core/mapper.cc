@@ -1,5 +1,8 @@
 #include "octo_slice_mapper/mapper.h"
 
+#include <algorithm>
+#include <cmath>
+#include <functional>
 #include <stdexcept>
 
 #include "octo_slice_mapper/map_io.h"
@@ -119,6 +122,137 @@ MapSnapshot Mapper::sliceAndScans(bool with_scans) const {
 void Mapper::endSnapshot() {
   lent_ = false;
   inserter_->setOctreeLent(false);
+}
+
+namespace {
+
+// Whether the segment from `a` to `b` meets the box [lo, hi] (slabs).
+bool segmentMeetsBox(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& lo,
+                     const Eigen::Vector3d& hi) {
+  double t0 = 0.0, t1 = 1.0;
+  const Eigen::Vector3d d = b - a;
+  for (int i = 0; i < 3; ++i) {
+    if (d[i] == 0.0) {
+      if (a[i] < lo[i] || a[i] > hi[i]) return false;
+      continue;
+    }
+    double ta = (lo[i] - a[i]) / d[i], tb = (hi[i] - a[i]) / d[i];
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+    if (t0 > t1) return false;
+  }
+  return true;
+}
+
+// OctoMap's deleteNode cannot be used here: when a deletion empties a node, it deletes that node
+// with its (now empty) child array still allocated, which the node's destructor asserts against
+// (Debian's liboctomap 1.9 is built with asserts: the process aborts). A subtree is removed here
+// only after it was collapsed into a leaf (its child arrays freed by pruneNode).
+
+// Turns the subtree under `node` into a single leaf: every missing child created, every child
+// collapsed and given the same value, then pruned (which frees the child array). Returns how many
+// of the tree's leaves it held: `node` itself when `is_leaf`, else those below it.
+std::size_t collapseIntoLeaf(octomap::OcTree* tree, octomap::OcTreeNode* node, bool is_leaf) {
+  std::size_t leaves = is_leaf ? 1 : 0;
+  for (unsigned c = 0; c < 8; ++c) {
+    octomap::OcTreeNode* child = nullptr;
+    if (tree->nodeChildExists(node, c)) {
+      child = tree->getNodeChild(node, c);
+      if (tree->nodeHasChildren(child)) leaves += collapseIntoLeaf(tree, child, false);
+      else if (!is_leaf) leaves += 1;
+    } else {
+      child = tree->createNodeChild(node, c);
+    }
+    child->setLogOdds(0.0f);
+  }
+  tree->pruneNode(node);
+  return leaves;
+}
+
+// What clearInside left of a subtree.
+enum class Left { kAll, kPart, kNothing };
+
+// Removes what lies inside keys [lo, hi] from the subtree under `node` (depth `depth`, first key
+// `base`); `removed` counts the leaves removed. kNothing: the whole subtree is to go (the caller
+// removes it; its leaves are not counted yet when it lies wholly inside).
+Left clearInside(octomap::OcTree* tree, octomap::OcTreeNode* node, const octomap::OcTreeKey& base, unsigned depth,
+                 const octomap::OcTreeKey& lo, const octomap::OcTreeKey& hi, bool* wholly_inside, std::size_t* removed) {
+  const unsigned span = 1u << (tree->getTreeDepth() - depth);
+  bool inside = true;
+  for (int i = 0; i < 3; ++i) {
+    if (base[i] + span - 1 < lo[i] || base[i] > hi[i]) return Left::kAll;
+    inside = inside && base[i] >= lo[i] && base[i] + span - 1 <= hi[i];
+  }
+  *wholly_inside = inside;
+  if (inside) return Left::kNothing;
+  if (!tree->nodeHasChildren(node)) tree->expandNode(node);  // a pruned leaf partly inside: split
+  bool left = false;
+  const unsigned half = span / 2;
+  for (unsigned c = 0; c < 8; ++c) {
+    if (!tree->nodeChildExists(node, c)) continue;
+    octomap::OcTreeNode* child = tree->getNodeChild(node, c);
+    const octomap::OcTreeKey child_base(base[0] + (c & 1 ? half : 0), base[1] + (c & 2 ? half : 0),
+                                        base[2] + (c & 4 ? half : 0));
+    const bool was_leaf = !tree->nodeHasChildren(child);
+    bool child_inside = false;
+    if (clearInside(tree, child, child_base, depth + 1, lo, hi, &child_inside, removed) == Left::kNothing) {
+      // Wholly inside: its leaves are counted as it collapses; emptied part by part: counted already.
+      const std::size_t leaves = collapseIntoLeaf(tree, child, was_leaf);
+      if (child_inside) *removed += leaves;
+      tree->deleteNodeChild(node, c);
+    } else {
+      left = true;
+    }
+  }
+  if (left) node->updateOccupancyChildren();
+  return left ? Left::kPart : Left::kNothing;
+}
+
+// Removes every voxel of `tree` inside keys [lo, hi]; returns how many leaves went.
+std::size_t clearKeyBox(octomap::OcTree* tree, const octomap::OcTreeKey& lo, const octomap::OcTreeKey& hi) {
+  octomap::OcTreeNode* root = tree->getRoot();
+  if (!root) return 0;
+  std::size_t removed = 0;
+  bool inside = false;
+  if (clearInside(tree, root, octomap::OcTreeKey(0, 0, 0), 0, lo, hi, &inside, &removed) == Left::kNothing) {
+    if (inside) removed += tree->getNumLeafNodes();
+    tree->clear();  // frees the root's subtree properly
+  }
+  return removed;
+}
+
+}  // namespace
+
+Mapper::Cleared Mapper::clearBox(const Eigen::Vector3d& min, const Eigen::Vector3d& max) {
+  if (lent_) throw std::logic_error("mapper: clearBox while the octree is lent");
+  octomap::OcTreeKey lo, hi;
+  const Eigen::Vector3d a = min.cwiseMin(max), b = min.cwiseMax(max);
+  if (!coordToKeySafe(*tree_, a.x(), a.y(), a.z(), &lo) || !coordToKeySafe(*tree_, b.x(), b.y(), b.z(), &hi)) {
+    throw std::invalid_argument("mapper: the box is outside what the octree holds");
+  }
+  inserter_->flush();
+  Cleared cleared;
+  cleared.voxels = clearKeyBox(tree_.get(), lo, hi);
+  inserter_->dropCache();  // flushed above: the octree holds all it had
+  KeyBox box;
+  box.add(lo);
+  box.add(hi);
+  slice_->update(box);
+  cleared.scans = store_.removeIf([&](const StoredScan& s) {
+    const Scan scan = s.toScan();
+    const Eigen::Vector3d origin = scan.sensor_pose.translation();
+    for (std::size_t i = 0; i < scan.ranges.size(); ++i) {
+      const float r = scan.ranges[i];
+      if (!(r > scan.range_min) || !std::isfinite(r)) continue;
+      const double length = std::min<double>(r, scan.range_max);
+      const double angle = scan.beamAngle(i);
+      const Eigen::Vector3d end = scan.sensor_pose * Eigen::Vector3d(length * std::cos(angle), length * std::sin(angle), 0.0);
+      if (segmentMeetsBox(origin, end, a, b)) return true;
+    }
+    return false;
+  });
+  return cleared;
 }
 
 void Mapper::applyOptimized(const GridImage& grid) {

@@ -140,6 +140,20 @@ void MappingSession::reset() {
   version_++, changes_++;
 }
 
+bool MappingSession::clearBox(const Eigen::Vector3d& min, const Eigen::Vector3d& max, Mapper::Cleared* cleared,
+                              std::string* error) {
+  std::lock_guard<std::mutex> one(one_at_a_time_);
+  Lock lock(this);
+  try {
+    *cleared = mapper_.clearBox(min, max);
+  } catch (const std::invalid_argument& e) {
+    *error = e.what();
+    return false;
+  }
+  version_++, changes_++;
+  return true;
+}
+
 bool MappingSession::load(const std::string& path, std::string* error) {
   std::lock_guard<std::mutex> one(one_at_a_time_);
   Lock lock(this);

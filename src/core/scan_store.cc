@@ -63,6 +63,26 @@ bool ScanStore::add(const Scan& scan) {
   return true;
 }
 
+std::size_t ScanStore::removeIf(const std::function<bool(const StoredScan&)>& drop) {
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < scans_.size(); ++i) {
+    if (drop(scans_[i])) continue;
+    if (i != kept) scans_[kept] = std::move(scans_[i]);
+    ++kept;
+  }
+  const std::size_t removed = scans_.size() - kept;
+  scans_.resize(kept);
+  if (removed > 0) {  // the places of dropped scans may be kept again
+    visited_.clear();
+    for (const StoredScan& s : scans_) {
+      if (options_.revisit_cell > 0.0 && options_.revisit_angle > 0.0 && s.origin.allFinite()) {
+        visited_.insert(revisitBin(s.origin, s.rotation));
+      }
+    }
+  }
+  return removed;
+}
+
 void ScanStore::clear() {
   scans_.clear();
   visited_.clear();

@@ -31,6 +31,7 @@ MapperServices::MapperServices(ros::NodeHandle nh, ros::NodeHandle pnh, const No
   save_srv_ = services.advertiseService("save_map", &MapperServices::onSaveMap, this);
   reset_srv_ = services.advertiseService("reset", &MapperServices::onReset, this);
   optimize_srv_ = services.advertiseService("optimize", &MapperServices::onOptimize, this);
+  clear_box_srv_ = services.advertiseService("clear_box", &MapperServices::onClearBox, this);
   spinner_ = std::make_unique<ros::AsyncSpinner>(1, &queue_);
   spinner_->start();
   // The map on request, as gmapping and hector_mapping offer it.
@@ -97,6 +98,31 @@ bool MapperServices::onReset(std_srvs::Empty::Request&, std_srvs::Empty::Respons
   session_->reset();
   if (online_) online_->forget();
   ROS_INFO("map reset");
+  return true;
+}
+
+bool MapperServices::onClearBox(ClearBox::Request& req, ClearBox::Response& res) {
+  const Eigen::Vector3d lo(req.min[0], req.min[1], req.min[2]), hi(req.max[0], req.max[1], req.max[2]);
+  if (!lo.allFinite() || !hi.allFinite()) {
+    res.success = false;
+    res.message = "the box's corners must be finite";
+    return true;
+  }
+  Mapper::Cleared cleared;
+  std::string error;
+  res.success = session_->clearBox(lo, hi, &cleared, &error);
+  if (!res.success) {
+    res.message = error;
+    ROS_WARN("~clear_box: %s", error.c_str());
+    return true;
+  }
+  if (online_) online_->forget();  // its last result still holds the box
+  res.voxels_cleared = static_cast<std::uint32_t>(cleared.voxels);
+  res.scans_dropped = static_cast<std::uint32_t>(cleared.scans);
+  res.message = "cleared " + std::to_string(cleared.voxels) + " voxels; dropped " + std::to_string(cleared.scans) +
+                " kept scans whose beams crossed the box";
+  ROS_INFO("~clear_box [%.2f %.2f %.2f] - [%.2f %.2f %.2f]: %s", lo.x(), lo.y(), lo.z(), hi.x(), hi.y(), hi.z(),
+           res.message.c_str());
   return true;
 }
 

@@ -1,4 +1,4 @@
-// The node's services: ~save_map, ~reset and ~optimize on a callback queue and thread of their
+// The node's services: ~save_map, ~reset, ~optimize and ~clear_box on a callback queue and thread of their
 // own (a save or a global pass takes seconds; scans go on meanwhile, see MappingSession), and
 // dynamic_map on the scans' queue, between scans, so it never waits behind them.
 #pragma once
@@ -11,6 +11,7 @@
 #include <memory>
 #include <string>
 
+#include "octo_slice_mapper/ClearBox.h"
 #include "octo_slice_mapper/Optimize.h"
 #include "octo_slice_mapper/SaveMap.h"
 #include "octo_slice_mapper/mapping_session.h"
@@ -36,6 +37,7 @@ class MapperServices {
   bool onSaveMap(SaveMap::Request& req, SaveMap::Response& res);
   bool onReset(std_srvs::Empty::Request&, std_srvs::Empty::Response&);
   bool onOptimize(Optimize::Request& req, Optimize::Response& res);
+  bool onClearBox(ClearBox::Request& req, ClearBox::Response& res);
   bool onGetMap(nav_msgs::GetMap::Request&, nav_msgs::GetMap::Response& res);
 
   const NodeOptions& options_;
@@ -44,7 +46,7 @@ class MapperServices {
   OnlinePass* online_;
   ros::CallbackQueue queue_;
   std::unique_ptr<ros::AsyncSpinner> spinner_;
-  ros::ServiceServer save_srv_, reset_srv_, optimize_srv_, get_map_srv_;
+  ros::ServiceServer save_srv_, reset_srv_, optimize_srv_, clear_box_srv_, get_map_srv_;
 };
 
 }  // namespace ros_adapter
