@@ -6,7 +6,11 @@
 // 0.26 m up, yawed 0.02 rad. The lidar is RPLIDAR-like: 720 beams over 360 deg, 12 m, REP 117
 // (+inf for no return). Prints medians over repetitions (ms per scan) and their ratio.
 //
-//   bench_tilted_scans [--repeats N] [--resolution M]
+//   bench_tilted_scans [--repeats N] [--resolution M] [--slice-report DIR]
+//
+// --slice-report DIR: what the tilt does to the slice instead of timing: the level session's
+// slice against the tilted one's, with the default band (0.16-0.36 m) and wider ones, as counts
+// of the level slice's occupied cells the tilted slice also has occupied, and pictures in DIR.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -17,6 +21,7 @@
 #include <vector>
 
 #include "bench_common.h"
+#include "octo_slice_mapper/map_io.h"
 #include "octo_slice_mapper/mapper.h"
 #include "octo_slice_mapper/sim/session.h"
 
@@ -71,14 +76,67 @@ double msPerScan(const std::vector<osm::Scan>& scans, double resolution, std::si
   return ms;
 }
 
+osm::Mapper mapAll(const std::vector<osm::Scan>& scans, double min_z, double max_z) {
+  osm::MapperOptions options;
+  options.keep_scans = false;
+  options.slice.min_z = min_z;
+  options.slice.max_z = max_z;
+  osm::Mapper mapper(options);
+  for (const osm::Scan& s : scans) mapper.insert(s);
+  return mapper;
+}
+
+// Of the reference slice's occupied cells (> 65 %), the share `other` has occupied, and the share
+// it has unknown; of `other`'s occupied cells, the share the reference has free (< 20 %).
+void compareSlices(const char* what, const osm::SliceGrid& reference, const osm::SliceGrid& other) {
+  std::size_t occupied = 0, kept = 0, lost_unknown = 0, other_occupied = 0, spurious = 0;
+  const double res = reference.resolution();
+  for (int j = 0; j < reference.height(); ++j) {
+    for (int i = 0; i < reference.width(); ++i) {
+      const double x = reference.originX() + (i + 0.5) * res, y = reference.originY() + (j + 0.5) * res;
+      const int a = reference.at(i, j), b = other.valueAt(x, y);
+      if (a > 65) {
+        ++occupied;
+        kept += b > 65;
+        lost_unknown += b == osm::kUnknownCell;
+      }
+      if (b > 65) {
+        ++other_occupied;
+        spurious += a >= 0 && a < 20;
+      }
+    }
+  }
+  std::printf("%-44s level's occupied cells kept occupied %5.1f %%, unknown %5.1f %%; its occupied cells free in level's %5.1f %%\n",
+              what, 100.0 * kept / std::max<std::size_t>(1, occupied), 100.0 * lost_unknown / std::max<std::size_t>(1, occupied),
+              100.0 * spurious / std::max<std::size_t>(1, other_occupied));
+}
+
+int sliceReport(const std::vector<osm::Scan>& level, const std::vector<osm::Scan>& tilted, const std::string& dir) {
+  osm::Mapper reference = mapAll(level, 0.16, 0.36);
+  std::string error;
+  osm::savePng(osm::gridImageOf(reference.slice()), dir + "/tilt_level.png", &error);
+  for (const auto& band : std::vector<std::pair<double, double>>{{0.16, 0.36}, {0.06, 0.46}, {0.0, 0.6}}) {
+    osm::Mapper mapper = mapAll(tilted, band.first, band.second);
+    char what[96];
+    std::snprintf(what, sizeof what, "tilted, band %.2f-%.2f m:", band.first, band.second);
+    compareSlices(what, reference.slice(), mapper.slice());
+    char name[64];
+    std::snprintf(name, sizeof name, "/tilt_band_%.2f_%.2f.png", band.first, band.second);
+    if (!osm::savePng(osm::gridImageOf(mapper.slice()), dir + name, &error)) std::fprintf(stderr, "%s\n", error.c_str());
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   int repeats = 5;
   double resolution = 0.05;
   bool tilted_only = false;  // for profiling the tilted path alone
+  std::string slice_dir;
   for (int i = 1; i < argc; ++i) {
     if (std::string(argv[i]) == "--tilted-only") tilted_only = true;
+    if (std::string(argv[i]) == "--slice-report" && i + 1 < argc) slice_dir = argv[i + 1];
   }
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string arg = argv[i];
@@ -94,6 +152,7 @@ int main(int argc, char** argv) {
   const osm::sim::SimulatedSession session(osm::sim::FloorPlan::office(), spec);
   const std::vector<osm::Scan> level = rep117(session.allScans());
   const std::vector<osm::Scan> tilted = throughRealTf(level, spec.lidar);
+  if (!slice_dir.empty()) return sliceReport(level, tilted, slice_dir);
   std::vector<double> level_ms, tilted_ms;
   std::size_t level_ok = 0, tilted_ok = 0;
   double level_updates = 0.0, tilted_updates = 0.0;

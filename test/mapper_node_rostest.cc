@@ -1,5 +1,6 @@
 // Integration test through a real roscore: tf + scans in, map out, services, bad input.
 #include <diagnostic_msgs/DiagnosticArray.h>
+#include <dynamic_reconfigure/Reconfigure.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <map_msgs/OccupancyGridUpdate.h>
 #include <gtest/gtest.h>
@@ -201,6 +202,47 @@ TEST_F(MapperNodeTest, ClearBoxMakesTheBoxUnknown) {
   srv.request.min = {-1e9, 0.0, 0.0};
   ASSERT_TRUE(ros::service::call("mapper_node/clear_box", srv));
   EXPECT_FALSE(srv.response.success) << "a box beyond the octree is refused";
+}
+
+// dynamic_reconfigure: moving the slice band above the laser empties the slice (the voxels are
+// still in the octree), moving it back shows the wall again; an impossible model is refused and
+// the session maps on (issue 21).
+TEST_F(MapperNodeTest, DynamicReconfigureMovesTheBandAndChangesTheModel) {
+  publishWall(kWallAhead, 3);
+  ASSERT_TRUE(waitFor([this] { return cellAt(2.11, 0.0) > 50; }, 20.0));
+  auto set = [](std::vector<std::pair<std::string, double>> values) {
+    dynamic_reconfigure::Reconfigure srv;
+    for (const auto& [name, value] : values) {
+      dynamic_reconfigure::DoubleParameter p;
+      p.name = name;
+      p.value = value;
+      srv.request.config.doubles.push_back(p);
+    }
+    return ros::service::call("mapper_node/set_parameters", srv);
+  };
+  ASSERT_TRUE(ros::service::waitForService("mapper_node/set_parameters", 10000));
+  ASSERT_TRUE(set({{"slice_min_z", 1.0}, {"slice_max_z", 1.2}}));
+  EXPECT_TRUE(waitFor([this] { return cellAt(2.11, 0.0) == -1 && cellAt(1.0, 0.0) == -1; }, 20.0))
+      << "a band above the laser sees nothing: wall cell " << cellAt(2.11, 0.0);
+  ASSERT_TRUE(set({{"slice_min_z", 0.16}, {"slice_max_z", 0.36}}));
+  EXPECT_TRUE(waitFor([this] { return cellAt(2.11, 0.0) > 50; }, 20.0)) << "back in the band: the wall again";
+  // sigma_base 0 is impossible (the model needs a spread): refused, and the next scans map with
+  // the model in place.
+  ASSERT_TRUE(set({{"p_free", 0.45}, {"p_occupied", 0.9}}));  // a valid change first
+  {
+    dynamic_reconfigure::Reconfigure srv;
+    dynamic_reconfigure::DoubleParameter p;
+    p.name = "sigma_base";
+    p.value = 0.0;
+    srv.request.config.doubles.push_back(p);
+    ASSERT_TRUE(ros::service::call("mapper_node/set_parameters", srv));
+    double answered = -1.0;
+    for (const auto& d : srv.response.config.doubles) answered = d.name == "sigma_base" ? d.value : answered;
+    EXPECT_DOUBLE_EQ(answered, 0.005) << "refused: the answer holds the value in force";
+  }
+  publishWall(3.0, 3);
+  EXPECT_TRUE(waitFor([this] { return cellAt(3.11, 0.0) > 50; }, 20.0)) << "still mapping";
+  ASSERT_TRUE(set({{"p_free", 0.4}, {"p_occupied", 0.75}, {"sigma_base", 0.005}}));
 }
 
 TEST_F(MapperNodeTest, DynamicMapServiceAnswersWithTheCurrentSlice) {

@@ -4,6 +4,7 @@
 
 #include <cstdlib>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <regex>
 #include <set>
@@ -92,6 +93,29 @@ TEST(ParameterTable, EveryOptionIsNamedOnceAndSetsItsOwnField) {
     EXPECT_TRUE(names.insert(spec.name).second) << spec.name << " twice";
   }
   EXPECT_EQ(optionFlag("no_return_clear_distance"), "--no-return-clear-distance");
+}
+
+}  // namespace
+
+namespace {
+
+// cfg/Mapper.cfg (dynamic_reconfigure) names options of the tables, with their defaults.
+TEST(ParameterTable, TheReconfigureConfigUsesTheTablesNamesAndDefaults) {
+  std::ifstream in(std::string(OSM_SOURCE_DIR) + "/cfg/Mapper.cfg");
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::regex add_re(R"re(\.add\("([a-z_0-9]+)",\s*double_t,\s*0,\s*"[^"]*",\s*([-0-9.e]+),)re");
+  std::map<std::string, std::string> defaults;
+  MapperOptions m;
+  for (const auto& spec : mapperOptionTable()) defaults[spec.name] = optionValueText(spec.field(m));
+  ros_adapter::NodeOptions n;
+  for (const auto& spec : ros_adapter::nodeOptionTable()) defaults[spec.name] = optionValueText(spec.field(n));
+  std::size_t found = 0;
+  for (std::sregex_iterator it(text.begin(), text.end(), add_re), end; it != end; ++it, ++found) {
+    const std::string name = (*it)[1];
+    ASSERT_TRUE(defaults.count(name)) << name << " is in Mapper.cfg but in no option table";
+    EXPECT_DOUBLE_EQ(std::atof((*it)[2].str().c_str()), std::atof(defaults[name].c_str())) << name;
+  }
+  EXPECT_GE(found, 16u) << "Mapper.cfg's parameters were not found";
 }
 
 }  // namespace

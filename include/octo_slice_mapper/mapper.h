@@ -71,6 +71,12 @@ class Mapper {
   // The global pass over the kept scans (from all-free, or warm from the slice's max-likelihood
   // state). Does not change the map; see applyOptimized().
   OptimizedMap optimize(bool warm_start, const ProgressFn& progress = {}) const;
+  // Takes new sensor models and slice band from `wanted` (insert.model, insert.max_range,
+  // slice.min_z/max_z, optimizer.model; the rest of `wanted` is ignored): the following scans
+  // are inserted with them, and the slice is rebuilt for the band. The octree stays as it is.
+  // Throws std::invalid_argument for impossible values (the map in place is kept), and
+  // std::logic_error while the octree is lent.
+  void reconfigure(const MapperOptions& wanted);
   // Makes every voxel inside the box (map frame, m) unknown again, as octomap_server's clear_bbx;
   // the slice follows, and the kept scans with a beam crossing the box are dropped (else the
   // global pass would bring it back). Refused (std::logic_error) while the octree is lent.

@@ -60,6 +60,9 @@ class MappingSession {
   std::optional<OptimizedMap> optimize(bool warm_start, const ProgressFn& progress = {});
   void reset();
   bool load(const std::string& path, std::string* error);
+  // Mapper::reconfigure, waiting for a running save; false with the reason for impossible values
+  // (nothing changed then). The background pass takes the new forward model with its next input.
+  bool reconfigure(const MapperOptions& wanted, std::string* error);
   // Mapper::clearBox, waiting for a running save; false with the reason for a box out of range.
   bool clearBox(const Eigen::Vector3d& min, const Eigen::Vector3d& max, Mapper::Cleared* cleared, std::string* error);
 
@@ -100,6 +103,7 @@ class MappingSession {
   std::uint64_t last_saved_version_ = 0;
   std::uint64_t online_input_version_ = ~std::uint64_t{0};
   double newest_stamp_ = 0.0;  // of the scans inserted
+  std::uint64_t options_version_ = 0;  // counts reconfigure()s
   double longest_lock_ms_ = 0.0;
 };
 

@@ -27,6 +27,10 @@ struct OnlineOptimizerInput {
   GridImage incremental;  // the incremental slice: the start where no earlier result knows a cell
   std::uint64_t version = 0;
   double newest_stamp = 0.0;  // of the newest scan in `scans` (s), handed back with the result
+  // The pass's options when they may change during a session (reconfigure); else the
+  // constructor's. A pass with other options than the last (options_version) looks at every cell.
+  std::optional<GlobalOptimizerOptions> options;
+  std::uint64_t options_version = 0;
 };
 
 struct OnlineOptimizerResult {
@@ -71,6 +75,7 @@ class OnlineOptimizer {
   std::size_t last_scan_count_ = 0;
   std::optional<StoredScan> last_first_scan_, last_last_scan_;
   bool last_converged_ = false;
+  std::uint64_t last_options_version_ = 0;
   std::uint64_t generation_ = 0;  // counts forget()s
   bool running_ = false, stopping_ = false;
   std::thread worker_;  // last: started once the rest is set up

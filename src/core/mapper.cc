@@ -224,6 +224,26 @@ std::size_t clearKeyBox(octomap::OcTree* tree, const octomap::OcTreeKey& lo, con
 
 }  // namespace
 
+void Mapper::reconfigure(const MapperOptions& wanted) {
+  if (lent_) throw std::logic_error("mapper: reconfigure while the octree is lent");
+  MapperOptions next = options_;
+  next.insert.model = wanted.insert.model;
+  next.insert.max_range = wanted.insert.max_range;
+  next.slice.min_z = wanted.slice.min_z;
+  next.slice.max_z = wanted.slice.max_z;
+  next.optimizer.model = wanted.optimizer.model;
+  next.optimizer.no_return_range = next.insert.model.no_return_clear_distance;
+  next.optimizer.max_range = next.insert.max_range;
+  inserter_->flush();  // the new inserter starts with an empty cache: the octree must hold all
+  // Built before swapping, so that a bad value leaves everything as it was.
+  auto inserter = std::make_unique<ScanInserter>(tree_.get(), next.insert);
+  auto slice = std::make_unique<SliceGrid>(*tree_, next.slice, &inserter->cache());
+  slice->rebuild();
+  options_ = next;
+  inserter_ = std::move(inserter);
+  slice_ = std::move(slice);
+}
+
 Mapper::Cleared Mapper::clearBox(const Eigen::Vector3d& min, const Eigen::Vector3d& max) {
   if (lent_) throw std::logic_error("mapper: clearBox while the octree is lent");
   octomap::OcTreeKey lo, hi;

@@ -140,6 +140,20 @@ void MappingSession::reset() {
   version_++, changes_++;
 }
 
+bool MappingSession::reconfigure(const MapperOptions& wanted, std::string* error) {
+  std::lock_guard<std::mutex> one(one_at_a_time_);
+  Lock lock(this);
+  try {
+    mapper_.reconfigure(wanted);
+  } catch (const std::invalid_argument& e) {
+    *error = e.what();
+    return false;
+  }
+  options_version_++;
+  version_++, changes_++;
+  return true;
+}
+
 bool MappingSession::clearBox(const Eigen::Vector3d& min, const Eigen::Vector3d& max, Mapper::Cleared* cleared,
                               std::string* error) {
   std::lock_guard<std::mutex> one(one_at_a_time_);
@@ -182,7 +196,10 @@ std::optional<OnlineOptimizerInput> MappingSession::onlinePassInput() {
   if (version_ == online_input_version_ || mapper_.scanStore().scans().empty()) return std::nullopt;
   online_input_version_ = version_;
   MapSnapshot copy = mapper_.optimizationInput();
-  return OnlineOptimizerInput{std::move(copy.scans), std::move(copy.slice), version_, newest_stamp_};
+  OnlineOptimizerInput input{std::move(copy.scans), std::move(copy.slice), version_, newest_stamp_};
+  input.options = mapper_.options().optimizer;
+  input.options_version = options_version_;
+  return input;
 }
 
 double MappingSession::longestLockMs() const {

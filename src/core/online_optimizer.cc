@@ -85,6 +85,7 @@ void OnlineOptimizer::run() {
     const std::uint64_t generation = generation_;
     // The last input's scans still lead this one's: the store only appended to them.
     const bool appended = last_converged_ && last_scan_count_ > 0 && input.scans.size() >= last_scan_count_ &&
+                          input.options_version == last_options_version_ &&
                           sameScan(input.scans.front(), *last_first_scan_) &&
                           sameScan(input.scans[last_scan_count_ - 1], *last_last_scan_);
     const std::size_t revisit_from = appended ? last_scan_count_ : 0;
@@ -94,7 +95,8 @@ void OnlineOptimizer::run() {
     const GridImage start = warmStartFrom(last, input.incremental);
     const RevisitFrom revisit{revisit_from, &last};
     OnlineOptimizerResult result;
-    result.map = optimizeScans(input.scans, options_, resolution_, &start, {}, revisit_from > 0 ? &revisit : nullptr);
+    const GlobalOptimizerOptions& options = input.options ? *input.options : options_;
+    result.map = optimizeScans(input.scans, options, resolution_, &start, {}, revisit_from > 0 ? &revisit : nullptr);
     result.map.grid = inFrameOf(result.map.grid, input.incremental);
     result.scans_revisited_from = revisit_from;
     result.version = input.version;
@@ -109,6 +111,7 @@ void OnlineOptimizer::run() {
       last_scan_count_ = input.scans.size();
       if (!input.scans.empty()) last_first_scan_ = input.scans.front(), last_last_scan_ = input.scans.back();
       last_converged_ = result.map.report.converged;
+      last_options_version_ = input.options_version;
       ready_ = std::move(result);
     }
   }

@@ -92,6 +92,9 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
         [this] { return session_.onlinePassInput(); });
   }
   services_ = std::make_unique<MapperServices>(nh_, pnh_, options_, &session_, &publisher_, online_pass_.get());
+  reconfigure_ = std::make_unique<LiveReconfigure>(
+      pnh_, &session_, [this](double rate) { publish_timer_.setPeriod(ros::Duration(1.0 / std::max(0.1, rate))); },
+      std::function<void()>());
   ROS_INFO("mapping in frame '%s' at %.3f m, slice z [%.2f, %.2f] m", options_.frame_id.c_str(), mapper.resolution,
            mapper.slice.min_z, mapper.slice.max_z);
 }
@@ -335,6 +338,7 @@ std::string MapperNode::summary() {
 
 // Runs after ros::spin() returned; roscpp has shut rosconsole down by then, so print directly.
 void MapperNode::shutdown() {
+  reconfigure_.reset();
   services_->stop();
   online_pass_.reset();  // waits for a running pass
   services_->saveOnShutdown();

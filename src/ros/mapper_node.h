@@ -20,6 +20,7 @@
 
 #include "octo_slice_mapper/mapping_session.h"
 #include "ros/diagnostics.h"
+#include "ros/live_reconfigure.h"
 #include "ros/map_publisher.h"
 #include "ros/mapper_services.h"
 #include "ros/node_parameters.h"
@@ -89,6 +90,7 @@ class MapperNode {
   // Last: their threads use the session and the publisher until they are destroyed.
   std::unique_ptr<OnlinePass> online_pass_;
   std::unique_ptr<MapperServices> services_;
+  std::unique_ptr<LiveReconfigure> reconfigure_;
 };
 
 }  // namespace ros_adapter
