@@ -89,7 +89,7 @@ osm::Mapper mapAll(const std::vector<osm::Scan>& scans, double min_z, double max
 // Of the reference slice's occupied cells (> 65 %), the share `other` has occupied, and the share
 // it has unknown; of `other`'s occupied cells, the share the reference has free (< 20 %).
 void compareSlices(const char* what, const osm::SliceGrid& reference, const osm::SliceGrid& other) {
-  std::size_t occupied = 0, kept = 0, lost_unknown = 0, other_occupied = 0, spurious = 0;
+  std::size_t occupied = 0, kept = 0, lost_unknown = 0, other_occupied = 0, spurious = 0, free = 0, free_kept = 0;
   const double res = reference.resolution();
   for (int j = 0; j < reference.height(); ++j) {
     for (int i = 0; i < reference.width(); ++i) {
@@ -100,15 +100,20 @@ void compareSlices(const char* what, const osm::SliceGrid& reference, const osm:
         kept += b > 65;
         lost_unknown += b == osm::kUnknownCell;
       }
+      if (a >= 0 && a < 20) {
+        ++free;
+        free_kept += b >= 0 && b < 20;
+      }
       if (b > 65) {
         ++other_occupied;
         spurious += a >= 0 && a < 20;
       }
     }
   }
-  std::printf("%-44s level's occupied cells kept occupied %5.1f %%, unknown %5.1f %%; its occupied cells free in level's %5.1f %%\n",
+  std::printf("%-30s level's occupied cells kept occupied %5.1f %% (unknown %4.1f %%), its free cells kept free "
+              "(< 20 %%) %5.1f %%; its occupied cells free in level's %4.1f %%\n",
               what, 100.0 * kept / std::max<std::size_t>(1, occupied), 100.0 * lost_unknown / std::max<std::size_t>(1, occupied),
-              100.0 * spurious / std::max<std::size_t>(1, other_occupied));
+              100.0 * free_kept / std::max<std::size_t>(1, free), 100.0 * spurious / std::max<std::size_t>(1, other_occupied));
 }
 
 int sliceReport(const std::vector<osm::Scan>& level, const std::vector<osm::Scan>& tilted, const std::string& dir) {

@@ -63,6 +63,22 @@ TEST(SliceGrid, MostOccupiedVoxelOfTheColumnCounts) {
   EXPECT_EQ(slice.valueAt(1.0, 1.0), std::lround(100.0 / (1.0 + std::exp(-1.5))));
 }
 
+// Without an obstacle in any layer, a column is as free as its best-observed layer: weak evidence
+// in a layer a tilted beam only grazed (45 %) must not hide the free layer it crossed (issue 21).
+TEST(SliceGrid, WithoutAnObstacleTheFreestLayerCounts) {
+  octomap::OcTree tree(0.05);
+  SliceGrid slice(tree, SliceOptions{0.16, 0.36});
+  tree.updateNode(1.0, 1.0, 0.21, -0.2f);  // grazed: 45 %
+  tree.updateNode(1.0, 1.0, 0.31, -2.0f);  // crossed: 12 %
+  KeyBox box = boxAround(tree, 1.0, 1.0, 0.21);
+  box.add(boxAround(tree, 1.0, 1.0, 0.31));
+  slice.update(box);
+  EXPECT_EQ(slice.valueAt(1.0, 1.0), std::lround(100.0 / (1.0 + std::exp(2.0))));
+  tree.updateNode(1.0, 1.0, 0.21, 0.5f);  // now 57 % occupied: an obstacle there blocks the column
+  slice.update(box);
+  EXPECT_EQ(slice.valueAt(1.0, 1.0), std::lround(100.0 / (1.0 + std::exp(-0.3))));
+}
+
 TEST(SliceGrid, IncrementalUpdatesEqualAFullRebuild) {
   MapperOptions options;
   Mapper mapper(options);

@@ -25,8 +25,9 @@ constexpr std::int8_t kUnknownCell = -1;
 
 // Cell (i, j) covers the octree column with keys (origin_key_x + i, origin_key_y + j). Values are
 // the band's occupancy probability in percent (0..100) or -1 when no voxel of the band is known.
-// Of several known voxels in a column the most occupied one counts: an obstacle anywhere in the
-// band blocks the robot.
+// Of several known voxels in a column the most occupied one counts when it is 50 % or more: an
+// obstacle anywhere in the band blocks the robot. Else the least occupied one counts: the layer a
+// beam crossed, not one it grazed with its cone's edge (a tilted scan's, issue 21).
 class SliceGrid {
  public:
   // With a `cache`, voxels of its layers are read from it (the tree may lag behind it).

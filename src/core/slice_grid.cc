@@ -88,13 +88,14 @@ const octomap::OcTreeNode* SliceGrid::bandVoxel(const octomap::OcTreeNode* top, 
 std::int8_t SliceGrid::columnValue(std::uint16_t kx, std::uint16_t ky) const {
   const octomap::OcTreeNode* top = nullptr;
   bool searched = false;  // the descent to `top` only when a layer needs the tree
-  double best = -1.0;
+  double best = -1.0, least = 2.0;  // the most and the least occupied known voxel
   for (unsigned kz = band_lo_; kz <= band_hi_; ++kz) {
     if (!layer_may_be_known_[kz - band_lo_]) continue;
     float log_odds = 0.0f;
     switch (cache_ ? cache_->lookup(kx, ky, kz, &log_odds) : LayerCache::Lookup::kNotCached) {
       case LayerCache::Lookup::kKnown:
         best = std::max(best, octomap::probability(log_odds));
+        least = std::min(least, octomap::probability(log_odds));
         break;
       case LayerCache::Lookup::kUnknown:
         break;
@@ -105,12 +106,18 @@ std::int8_t SliceGrid::columnValue(std::uint16_t kx, std::uint16_t ky) const {
         }
         if (const octomap::OcTreeNode* node = top ? bandVoxel(top, kx, ky, kz) : nullptr) {
           best = std::max(best, node->getOccupancy());
+          least = std::min(least, node->getOccupancy());
         }
         break;
     }
   }
   if (best < 0.0) return kUnknownCell;
-  return static_cast<std::int8_t>(std::lround(best * 100.0));
+  // An obstacle more likely than not in any layer blocks the column. Else the column is as free as
+  // its best-observed layer: a tilted scan's beams graze the layers beside theirs with the cone's
+  // edge, and the weak evidence there (45 %, say) must not hide the layer they crossed (issue 21:
+  // a degree of tilt turned a fifth of the free cells grey, unknown to map_server).
+  const double value = best >= 0.5 ? best : least;
+  return static_cast<std::int8_t>(std::lround(value * 100.0));
 }
 
 // Grows the grid (keeping its contents) so that it covers the key rectangle. Growth adds a
