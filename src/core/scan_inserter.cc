@@ -503,16 +503,30 @@ InsertResult ScanInserter::insertIntoLayers(const Eigen::Vector3d& origin, const
     cache_.cover(layers[z - z0], box.min[0], box.min[1], box.max[0], box.max[1]);
   }
   // The box in locals: added to through the result, every bound would go back to memory per voxel.
-  unsigned lo[3] = {0xFFFF, 0xFFFF, 0xFFFF}, hi[3] = {0, 0, 0};
+  unsigned lo[3] = {0xFFFF, 0xFFFF, z0}, hi[3] = {0, 0, z1};
   std::size_t updates = 0;
-  evidence_.drain([&](const octomap::OcTreeKey& key, float update) __attribute__((always_inline)) {
-    ++updates;
-    for (int d = 0; d < 3; ++d) {
-      lo[d] = std::min<unsigned>(lo[d], key[d]);
-      hi[d] = std::max<unsigned>(hi[d], key[d]);
-    }
-    if (cache_.apply(*layers[key[2] - z0], key[0], key[1], update)) result.updated_keys.push_back(key);
-  });
+  if (z0 == z1) {
+    // A level scan, the common case: one layer, no per-voxel layer lookup (9 % of its time).
+    LayerCache::Layer& layer = *layers[0];
+    evidence_.drain([&](const octomap::OcTreeKey& key, float update) __attribute__((always_inline)) {
+      ++updates;
+      for (int d = 0; d < 2; ++d) {
+        lo[d] = std::min<unsigned>(lo[d], key[d]);
+        hi[d] = std::max<unsigned>(hi[d], key[d]);
+      }
+      if (cache_.apply(layer, key[0], key[1], update)) result.updated_keys.push_back(key);
+    });
+  } else {
+    lo[2] = 0xFFFF, hi[2] = 0;
+    evidence_.drain([&](const octomap::OcTreeKey& key, float update) __attribute__((always_inline)) {
+      ++updates;
+      for (int d = 0; d < 3; ++d) {
+        lo[d] = std::min<unsigned>(lo[d], key[d]);
+        hi[d] = std::max<unsigned>(hi[d], key[d]);
+      }
+      if (cache_.apply(*layers[key[2] - z0], key[0], key[1], update)) result.updated_keys.push_back(key);
+    });
+  }
   result.voxels_updated = updates;
   if (updates > 0) {
     result.touched.add(octomap::OcTreeKey(lo[0], lo[1], lo[2]));
