@@ -84,7 +84,11 @@ class MappingSession {
   Mapper& mapperUnlocked() { return mapper_; }
 
   const SessionOptions& options() const { return options_; }
-  const MapperOptions& mapperOptions() const { return mapper_options_; }
+  // The mapper's options as they are now (reconfigure() changes the models and the band).
+  MapperOptions mapperOptions() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return mapper_.options();
+  }
 
  private:
   class Lock;  // the lock, timed
@@ -94,7 +98,6 @@ class MappingSession {
   InsertResult recordInsert(InsertResult result);
 
   const SessionOptions options_;
-  const MapperOptions mapper_options_;
   mutable std::mutex mutex_;  // guards everything below
   Mapper mapper_;
   std::mutex one_at_a_time_;  // one save / optimize / reset / load at a time

@@ -25,7 +25,7 @@ class MappingSession::Lock {
 };
 
 MappingSession::MappingSession(const MapperOptions& mapper, const SessionOptions& session)
-    : options_(session), mapper_options_(mapper), mapper_(mapper) {}
+    : options_(session), mapper_(mapper) {}
 
 InsertResult MappingSession::recordInsert(InsertResult result) {
   if (result.ok() && result.voxels_updated > 0) version_++, changes_++;

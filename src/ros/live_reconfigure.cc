@@ -20,73 +20,63 @@ LiveReconfigure::LiveReconfigure(ros::NodeHandle pnh, MappingSession* session,
 
 LiveReconfigure::~LiveReconfigure() { spinner_->stop(); }
 
+namespace {
+
+// Each tunable option: its field in the generated config and in MapperOptions (same name, the
+// option table's).
+struct Tunable {
+  const char* name;
+  double MapperConfig::*config;
+  double& (*option)(MapperOptions&);
+};
+
+const Tunable kTunables[] = {
+    {"p_free", &MapperConfig::p_free, [](MapperOptions& o) -> double& { return o.insert.model.p_free; }},
+    {"p_occupied", &MapperConfig::p_occupied, [](MapperOptions& o) -> double& { return o.insert.model.p_occupied; }},
+    {"sigma_base", &MapperConfig::sigma_base, [](MapperOptions& o) -> double& { return o.insert.model.sigma_base; }},
+    {"sigma_per_meter", &MapperConfig::sigma_per_meter,
+     [](MapperOptions& o) -> double& { return o.insert.model.sigma_per_meter; }},
+    {"sigma_angle_gain", &MapperConfig::sigma_angle_gain,
+     [](MapperOptions& o) -> double& { return o.insert.model.sigma_angle_gain; }},
+    {"cone_taper_fraction", &MapperConfig::cone_taper_fraction,
+     [](MapperOptions& o) -> double& { return o.insert.model.cone_taper_fraction; }},
+    {"beam_opening_angle", &MapperConfig::beam_opening_angle,
+     [](MapperOptions& o) -> double& { return o.insert.model.beam_opening_angle; }},
+    {"no_return_clear_distance", &MapperConfig::no_return_clear_distance,
+     [](MapperOptions& o) -> double& { return o.insert.model.no_return_clear_distance; }},
+    {"slice_min_z", &MapperConfig::slice_min_z, [](MapperOptions& o) -> double& { return o.slice.min_z; }},
+    {"slice_max_z", &MapperConfig::slice_max_z, [](MapperOptions& o) -> double& { return o.slice.max_z; }},
+    {"forward_z_hit", &MapperConfig::forward_z_hit, [](MapperOptions& o) -> double& { return o.optimizer.model.z_hit; }},
+    {"forward_z_rand", &MapperConfig::forward_z_rand, [](MapperOptions& o) -> double& { return o.optimizer.model.z_rand; }},
+    {"forward_z_miss", &MapperConfig::forward_z_miss, [](MapperOptions& o) -> double& { return o.optimizer.model.z_miss; }},
+    {"forward_sigma_base", &MapperConfig::forward_sigma_base,
+     [](MapperOptions& o) -> double& { return o.optimizer.model.sigma_base; }},
+    {"forward_sigma_per_meter", &MapperConfig::forward_sigma_per_meter,
+     [](MapperOptions& o) -> double& { return o.optimizer.model.sigma_per_meter; }},
+};
+
+}  // namespace
+
 void LiveReconfigure::onConfig(MapperConfig& config, std::uint32_t) {
   if (config.publish_rate != publish_rate_) {
     if (publish_rate_ >= 0.0) ROS_INFO("reconfigure: publish_rate %g -> %g Hz", publish_rate_, config.publish_rate);
     publish_rate_ = config.publish_rate;
     set_publish_rate_(config.publish_rate);
   }
-  const MapperOptions now = session_->withMapper([](const Mapper& m) { return m.options(); });
+  MapperOptions now = session_->mapperOptions();
   MapperOptions wanted = now;
-  InverseSensorModelOptions& m = wanted.insert.model;
-  m.p_free = config.p_free;
-  m.p_occupied = config.p_occupied;
-  m.sigma_base = config.sigma_base;
-  m.sigma_per_meter = config.sigma_per_meter;
-  m.sigma_angle_gain = config.sigma_angle_gain;
-  m.cone_taper_fraction = config.cone_taper_fraction;
-  m.beam_opening_angle = config.beam_opening_angle;
-  m.no_return_clear_distance = config.no_return_clear_distance;
-  wanted.slice.min_z = config.slice_min_z;
-  wanted.slice.max_z = config.slice_max_z;
-  ForwardSensorModelOptions& f = wanted.optimizer.model;
-  f.z_hit = config.forward_z_hit;
-  f.z_rand = config.forward_z_rand;
-  f.z_miss = config.forward_z_miss;
-  f.sigma_base = config.forward_sigma_base;
-  f.sigma_per_meter = config.forward_sigma_per_meter;
-  // What changed, for the log (and nothing to do when nothing did: the server's first call).
-  std::ostringstream changed;
-  auto note = [&changed](const char* name, double before, double after) {
-    if (before != after) changed << ' ' << name << ' ' << before << " -> " << after;
-  };
-  const InverseSensorModelOptions& o = now.insert.model;
-  note("p_free", o.p_free, m.p_free);
-  note("p_occupied", o.p_occupied, m.p_occupied);
-  note("sigma_base", o.sigma_base, m.sigma_base);
-  note("sigma_per_meter", o.sigma_per_meter, m.sigma_per_meter);
-  note("sigma_angle_gain", o.sigma_angle_gain, m.sigma_angle_gain);
-  note("cone_taper_fraction", o.cone_taper_fraction, m.cone_taper_fraction);
-  note("beam_opening_angle", o.beam_opening_angle, m.beam_opening_angle);
-  note("no_return_clear_distance", o.no_return_clear_distance, m.no_return_clear_distance);
-  note("slice_min_z", now.slice.min_z, wanted.slice.min_z);
-  note("slice_max_z", now.slice.max_z, wanted.slice.max_z);
-  const ForwardSensorModelOptions& g = now.optimizer.model;
-  note("forward_z_hit", g.z_hit, f.z_hit);
-  note("forward_z_rand", g.z_rand, f.z_rand);
-  note("forward_z_miss", g.z_miss, f.z_miss);
-  note("forward_sigma_base", g.sigma_base, f.sigma_base);
-  note("forward_sigma_per_meter", g.sigma_per_meter, f.sigma_per_meter);
+  std::ostringstream changed;  // for the log; nothing to do when nothing changed (the server's first call)
+  for (const Tunable& t : kTunables) {
+    const double before = t.option(now), after = config.*t.config;
+    t.option(wanted) = after;
+    if (before != after) changed << ' ' << t.name << ' ' << before << " -> " << after;
+  }
   if (changed.str().empty()) return;
   std::string error;
   if (!session_->reconfigure(wanted, &error)) {
     ROS_WARN("reconfigure refused (%s):%s; the model stays as it was", error.c_str(), changed.str().c_str());
     // The server keeps (and shows rqt) what this returns: the values in force, not the refused ones.
-    config.p_free = o.p_free;
-    config.p_occupied = o.p_occupied;
-    config.sigma_base = o.sigma_base;
-    config.sigma_per_meter = o.sigma_per_meter;
-    config.sigma_angle_gain = o.sigma_angle_gain;
-    config.cone_taper_fraction = o.cone_taper_fraction;
-    config.beam_opening_angle = o.beam_opening_angle;
-    config.no_return_clear_distance = o.no_return_clear_distance;
-    config.slice_min_z = now.slice.min_z;
-    config.slice_max_z = now.slice.max_z;
-    config.forward_z_hit = g.z_hit;
-    config.forward_z_rand = g.z_rand;
-    config.forward_z_miss = g.z_miss;
-    config.forward_sigma_base = g.sigma_base;
-    config.forward_sigma_per_meter = g.sigma_per_meter;
+    for (const Tunable& t : kTunables) config.*t.config = t.option(now);
     return;
   }
   ROS_INFO("reconfigure:%s (for the following scans; the slice is rebuilt for the band)", changed.str().c_str());

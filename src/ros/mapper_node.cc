@@ -87,7 +87,7 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   const MapperOptions& mapper = session_.mapperOptions();
   if (options_.online_optimize && mapper.keep_scans) {
     online_pass_ = std::make_unique<OnlinePass>(
-        pnh_, session_.withMapper([](const Mapper& m) { return m.options().optimizer; }), mapper.resolution,
+        pnh_, mapper.optimizer, mapper.resolution,
         mapper.slice.min_z, options_.frame_id, options_.online_optimize_period,
         [this] { return session_.onlinePassInput(); });
   }
