@@ -109,6 +109,12 @@ class Mapper {
 
  private:
   void adopt(std::unique_ptr<octomap::OcTree> tree);
+  // A new inserter and slice for `tree` (null: the current one) with `options`, swapped in only
+  // when both could be built.
+  void install(std::unique_ptr<octomap::OcTree> tree, const MapperOptions& options);
+  // The global pass reads scans as insertion does: its reading rules, no-return range and range
+  // cut follow `insert`.
+  static void followInsertion(MapperOptions* options);
   InsertResult record(InsertResult result);  // slice update + statistics
   // A snapshot's copies (the slice, its band, the kept scans if asked), without the octree.
   MapSnapshot sliceAndScans(bool with_scans) const;

@@ -20,20 +20,30 @@ Mapper::Mapper(const MapperOptions& options) : options_(options), store_(options
   if (!(0.0 < options.clamp_min && options.clamp_min < 0.5 && 0.5 < options.clamp_max && options.clamp_max < 1.0)) {
     throw std::invalid_argument("mapper: need 0 < clamp_min < 0.5 < clamp_max < 1");
   }
-  options_.optimizer.no_return_range = options.insert.model.no_return_clear_distance;
-  options_.optimizer.readings = options.insert.readings;
-  options_.optimizer.max_range = options.insert.max_range;
+  followInsertion(&options_);
   adopt(std::make_unique<octomap::OcTree>(options.resolution));
+}
+
+void Mapper::followInsertion(MapperOptions* options) {
+  options->optimizer.no_return_range = options->insert.model.no_return_clear_distance;
+  options->optimizer.readings = options->insert.readings;
+  options->optimizer.max_range = options->insert.max_range;
 }
 
 void Mapper::adopt(std::unique_ptr<octomap::OcTree> tree) {
   useMapperThresholds(options_, tree.get());
+  install(std::move(tree), options_);
+}
+
+void Mapper::install(std::unique_ptr<octomap::OcTree> tree, const MapperOptions& options) {
+  octomap::OcTree* target = tree ? tree.get() : tree_.get();
   // Build the new parts before swapping, so a bad option or a slice too big leaves the old map in place.
-  auto inserter = std::make_unique<ScanInserter>(tree.get(), options_.insert);
-  auto slice = std::make_unique<SliceGrid>(*tree, options_.slice, &inserter->cache());
+  auto inserter = std::make_unique<ScanInserter>(target, options.insert);
+  auto slice = std::make_unique<SliceGrid>(*target, options.slice, &inserter->cache());
   slice->rebuild();
-  options_.resolution = tree->getResolution();
-  tree_ = std::move(tree);
+  options_ = options;
+  options_.resolution = target->getResolution();
+  if (tree) tree_ = std::move(tree);
   inserter_ = std::move(inserter);
   slice_ = std::move(slice);
 }
@@ -232,16 +242,9 @@ void Mapper::reconfigure(const MapperOptions& wanted) {
   next.slice.min_z = wanted.slice.min_z;
   next.slice.max_z = wanted.slice.max_z;
   next.optimizer.model = wanted.optimizer.model;
-  next.optimizer.no_return_range = next.insert.model.no_return_clear_distance;
-  next.optimizer.max_range = next.insert.max_range;
+  followInsertion(&next);
   inserter_->flush();  // the new inserter starts with an empty cache: the octree must hold all
-  // Built before swapping, so that a bad value leaves everything as it was.
-  auto inserter = std::make_unique<ScanInserter>(tree_.get(), next.insert);
-  auto slice = std::make_unique<SliceGrid>(*tree_, next.slice, &inserter->cache());
-  slice->rebuild();
-  options_ = next;
-  inserter_ = std::move(inserter);
-  slice_ = std::move(slice);
+  install(nullptr, next);
 }
 
 Mapper::Cleared Mapper::clearBox(const Eigen::Vector3d& min, const Eigen::Vector3d& max) {
