@@ -6,9 +6,13 @@
 // (the lab's start) and warm from the incremental map, each `repeats` times: median seconds
 // (index + sweeps), sweeps, flips, and the process's peak resident memory during the pass
 // (VmHWM, reset before each run through /proc/self/clear_refs; it includes the loaded log and
-// the octree). Map quality on held-out scans: bench_map_quality.
+// the octree). Then the background pass as the node runs it, with one thread and every core.
+// Map quality on held-out scans: bench_map_quality.
 // Targets (issue 3): Intel <= 10 s, Freiburg 079 <= 60 s, peak memory <= 1 GB.
 #include <algorithm>
+#include <chrono>
+#include <optional>
+#include <thread>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -19,6 +23,7 @@
 #include "octo_slice_mapper/carmen_log.h"
 #include "octo_slice_mapper/map_evaluation.h"
 #include "octo_slice_mapper/mapper.h"
+#include "octo_slice_mapper/online_optimizer.h"
 
 namespace osm = octo_slice_mapper;
 
@@ -73,6 +78,46 @@ Timing timeGlobalPass(const osm::Mapper& mapper, bool warm_start, int repeats) {
   return t;
 }
 
+// The background pass as the node runs it (OnlineOptimizer): a converged pass over all scans but
+// the last `kNewScans`, then the timed one over all, which revisits only what the new scans
+// reach; with one worker thread and with every core, paired in this process.
+void timeOnlinePass(const std::vector<osm::LogScan>& log, const osm::Mapper& all, int repeats) {
+  constexpr std::size_t kNewScans = 15;  // about 3 s of Freiburg 079 at its 4.4 scans/s
+  if (log.size() <= kNewScans) return;
+  osm::Mapper earlier;
+  for (std::size_t i = 0; i + kNewScans < log.size(); ++i) earlier.insert(log[i].scan);
+  const osm::MapSnapshot before = earlier.optimizationInput(), now = all.optimizationInput();
+  std::printf("  %-28s %8s %8s %8s %9s\n", "online pass, last 15 scans new", "seconds", "index s", "sweeps s",
+              "revisits");
+  std::vector<double> serial;
+  for (int threads : {1, 0}) {
+    osm::GlobalOptimizerOptions options = all.options().optimizer;
+    options.threads = threads;
+    std::vector<double> seconds, index, sweeps;
+    bool revisited = true;
+    for (int r = 0; r < repeats; ++r) {
+      osm::OnlineOptimizer pass(options, all.options().resolution);
+      const auto wait = [&pass] {
+        std::optional<osm::OnlineOptimizerResult> result;
+        while (!(result = pass.take())) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        return *result;
+      };
+      pass.submit({before.scans, before.slice, 1, 0.0, std::nullopt, 0});
+      wait();
+      pass.submit({now.scans, now.slice, 2, 0.0, std::nullopt, 0});
+      const osm::OnlineOptimizerResult result = wait();
+      seconds.push_back(result.seconds);
+      index.push_back(result.map.report.build_seconds);
+      sweeps.push_back(result.map.report.optimize_seconds);
+      revisited = revisited && result.scans_revisited_from > 0;
+    }
+    std::printf("  %-28s %8.2f %8.2f %8.2f %9s\n", threads == 1 ? "one thread" : "every core", median(seconds),
+                median(index), median(sweeps), revisited ? "yes" : "NO");
+    if (threads == 1) serial = seconds;
+    else std::printf("  every core vs one thread: %.2fx faster (medians)\n", median(serial) / median(seconds));
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -119,6 +164,7 @@ int main(int argc, char** argv) {
     }
     std::printf("  (%zu observed cells, %zu beams; scan store %.1f MB)\n", t.cells, t.beams,
                 all.scanStore().memoryBytes() / 1e6);
+    timeOnlinePass(log, all, repeats);
 
   }
   if (!rss_resettable) std::printf("note: /proc/self/clear_refs not writable: peak MB is the process's peak so far\n");

@@ -81,6 +81,43 @@ TEST(GlobalOptimizer, SweepsNeverLowerTheLikelihoodAndEndInALocalOptimum) {
   }
 }
 
+TEST(GlobalOptimizer, AnyNumberOfThreadsGivesTheSameMapAndLikelihood) {
+  // Indexing and judging cells in chunks on several threads must give the serial pass's result
+  // bit for bit (same index order, same sums), from both starts.
+  const sim::SimulatedSession session(sim::FloorPlan::doorCorridor(), sim::SessionSpec::corridorPass());
+  const std::vector<StoredScan> scans = storeAll(session.allScans());
+  for (bool warm : {false, true}) {
+    GridImage reference;
+    double reference_ll = 0.0;
+    std::vector<std::size_t> reference_flips;
+    for (int threads : {1, 2, 3}) {
+      GlobalOptimizerOptions options;
+      options.threads = threads;
+      GlobalOptimizer optimizer(options, 0.05);
+      optimizer.build(scans);
+      ASSERT_GT(optimizer.beamCount(), 3u * 1024u) << "too few beams to be split among threads";
+      if (warm) {
+        GlobalOptimizer first(GlobalOptimizerOptions{}, 0.05);
+        first.build(scans);
+        first.optimize();
+        GridImage start = first.result();
+        for (std::size_t c = 0; c < start.cells.size(); c += 7) start.cells[c] = 100;  // a start unlike the optimum
+        optimizer.startFrom(start);
+      }
+      const OptimizeReport report = optimizer.optimize();
+      if (threads == 1) {
+        reference = optimizer.result();
+        reference_ll = report.final_log_likelihood;
+        reference_flips = report.flips_per_sweep;
+        continue;
+      }
+      EXPECT_EQ(report.final_log_likelihood, reference_ll) << threads << " threads, warm " << warm;
+      EXPECT_EQ(report.flips_per_sweep, reference_flips) << threads << " threads, warm " << warm;
+      EXPECT_EQ(optimizer.result().cells, reference.cells) << threads << " threads, warm " << warm;
+    }
+  }
+}
+
 TEST(GlobalOptimizer, OpensTheDoorSonarConesPass) {
   // Sonar-like beams (20 deg cones that echo from their nearest obstacle) pass an open door. An
   // inverse model that marks the whole cross-section at the echo's range occupied spreads the

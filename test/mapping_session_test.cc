@@ -220,7 +220,9 @@ TEST_F(MappingSessionTest, ClearBoxMakesTheBoxUnknownAndDropsTheScansThatSawIt) 
   const GridImage& g = optimized->grid;
   const int i = static_cast<int>(std::floor((in_x - g.origin_x) / g.resolution));
   const int j = static_cast<int>(std::floor((in_y - g.origin_y) / g.resolution));
-  if (i >= 0 && j >= 0 && i < g.width && j < g.height) EXPECT_EQ(g.at(i, j), kUnknownCell);
+  if (i >= 0 && j >= 0 && i < g.width && j < g.height) {
+    EXPECT_EQ(g.at(i, j), kUnknownCell);
+  }
   EXPECT_FALSE(session.clearBox(Eigen::Vector3d(-1e7, 0, 0), hi, &cleared, &error)) << "outside the octree";
 }
 

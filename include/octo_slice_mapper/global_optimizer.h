@@ -25,6 +25,9 @@ struct GlobalOptimizerOptions {
   // Returns farther than this are not used (0 = the sensor's range_max).
   double max_range = 0.0;
   int max_sweeps = 100;
+  // Workers for indexing the beams and judging the cells (0 = every core). The map is the same
+  // for any number.
+  int threads = 0;
   // Full opening angle of a beam (rad). 0: a laser's thin beam, traced along its axis. Wider
   // (sonar): the expected range is the nearest occupied cell anywhere in the cone.
   double beam_opening_angle = 0.0;
@@ -124,6 +127,7 @@ class GlobalOptimizer {
   std::vector<std::uint64_t> cone_begin_;  // per beam, into cone_cells_ (empty range for thin beams)
   std::vector<std::size_t> cone_cells_;   // cells of each cone, each once, nearest first
   void findFirstOccupied(Beam* beam, std::int32_t skip_cell) const;
+  unsigned threadCount() const { return options_.threads > 0 ? static_cast<unsigned>(options_.threads) : 0u; }
 
   GlobalOptimizerOptions options_;
   double resolution_;

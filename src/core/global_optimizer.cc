@@ -4,6 +4,8 @@
 #include <chrono>
 #include <cmath>
 
+#include "octo_slice_mapper/parallel_chunks.h"
+
 namespace octo_slice_mapper {
 namespace {
 
@@ -177,30 +179,51 @@ void GlobalOptimizer::build(const std::vector<StoredScan>& scans, const Progress
   if (cone_cells_.empty()) cone_cells_.push_back(0);  // keeps &cone_cells_[0] valid
 
   // Two passes over the rays: count per cell, then fill. A cell a beam crosses twice (rounding)
-  // is listed once.
-  std::vector<std::uint32_t> counts(cells, 0);
-  for (std::size_t b = 0; b < beams_.size(); ++b) {
-    std::size_t last = npos;
-    walk(beams_[b], [&](std::size_t c) {
-      if (c != last) ++counts[c];
-      last = c;
-      return true;
-    });
-    if (progress && b % 200000 == 0) progress("indexing beams", 0.5 * b / beams_.size());
-  }
+  // is listed once. Each worker walks its own chunk of beams with its own counts; a cell's list
+  // holds chunk 0's beams first, then chunk 1's, ...: beam order, as one worker gives it.
+  const unsigned workers = workersFor(threadCount(), beams_.size());
+  std::vector<std::vector<std::uint32_t>> counts(workers);
+  forEachChunk(beams_.size(), workers, [&](std::size_t begin, std::size_t end, unsigned w) {
+    std::vector<std::uint32_t>& count = counts[w];
+    count.assign(cells, 0);
+    for (std::size_t b = begin; b < end; ++b) {
+      std::size_t last = npos;
+      walk(beams_[b], [&](std::size_t c) {
+        if (c != last) ++count[c];
+        last = c;
+        return true;
+      });
+      if (progress && w + 1 == workers && (b - begin) % 200000 == 0) {
+        progress("indexing beams", 0.5 * (b - begin) / (end - begin));
+      }
+    }
+  });
   cell_beams_begin_.assign(cells + 1, 0);
-  for (std::size_t c = 0; c < cells; ++c) cell_beams_begin_[c + 1] = cell_beams_begin_[c] + counts[c];
-  cell_beams_.resize(cell_beams_begin_.back());
-  std::vector<std::uint64_t> fill(cell_beams_begin_.begin(), cell_beams_begin_.end() - 1);
-  for (std::size_t b = 0; b < beams_.size(); ++b) {
-    std::size_t last = npos;
-    walk(beams_[b], [&](std::size_t c) {
-      if (c != last) cell_beams_[fill[c]++] = static_cast<std::uint32_t>(b);
-      last = c;
-      return true;
-    });
-    if (progress && b % 200000 == 0) progress("indexing beams", 0.5 + 0.5 * b / beams_.size());
+  // counts[w][c] becomes where worker w's beams through c start.
+  for (std::size_t c = 0; c < cells; ++c) {
+    std::uint64_t at = cell_beams_begin_[c];
+    for (unsigned w = 0; w < workers; ++w) {
+      const std::uint32_t n = counts[w][c];
+      counts[w][c] = static_cast<std::uint32_t>(at - cell_beams_begin_[c]);
+      at += n;
+    }
+    cell_beams_begin_[c + 1] = at;
   }
+  cell_beams_.resize(cell_beams_begin_.back());
+  forEachChunk(beams_.size(), workers, [&](std::size_t begin, std::size_t end, unsigned w) {
+    std::vector<std::uint32_t>& fill = counts[w];
+    for (std::size_t b = begin; b < end; ++b) {
+      std::size_t last = npos;
+      walk(beams_[b], [&](std::size_t c) {
+        if (c != last) cell_beams_[cell_beams_begin_[c] + fill[c]++] = static_cast<std::uint32_t>(b);
+        last = c;
+        return true;
+      });
+      if (progress && w + 1 == workers && (b - begin) % 200000 == 0) {
+        progress("indexing beams", 0.5 + 0.5 * (b - begin) / (end - begin));
+      }
+    }
+  });
   occupied_.assign(cells, 0);
   beam_changed_.assign(beams_.size(), 0);
   startEmpty();
@@ -208,7 +231,12 @@ void GlobalOptimizer::build(const std::vector<StoredScan>& scans, const Progress
 
 void GlobalOptimizer::startEmpty() {
   std::fill(occupied_.begin(), occupied_.end(), 0);
-  resetBeams();
+  // No cell occupied: no beam meets an obstacle, nothing to walk.
+  log_likelihood_ = 0.0;
+  for (Beam& b : beams_) {
+    setFirst(&b, -1, kNone);
+    log_likelihood_ += b.log_likelihood;
+  }
 }
 
 void GlobalOptimizer::startFrom(const GridImage& map) {
@@ -236,11 +264,12 @@ void GlobalOptimizer::findFirstOccupied(Beam* beam, std::int32_t skip_cell) cons
 }
 
 void GlobalOptimizer::resetBeams() {
+  forEachChunk(beams_.size(), workersFor(threadCount(), beams_.size()), [&](std::size_t begin, std::size_t end, unsigned) {
+    for (std::size_t b = begin; b < end; ++b) findFirstOccupied(&beams_[b], -1);
+  });
+  // Summed in beam order, as a single worker would.
   log_likelihood_ = 0.0;
-  for (Beam& b : beams_) {
-    findFirstOccupied(&b, -1);
-    log_likelihood_ += b.log_likelihood;
-  }
+  for (const Beam& b : beams_) log_likelihood_ += b.log_likelihood;
 }
 
 double GlobalOptimizer::recomputeLogLikelihood() const {
@@ -339,13 +368,22 @@ OptimizeReport GlobalOptimizer::optimize(const ProgressFn& progress, const std::
   for (int sweep = 0; sweep < options_.max_sweeps; ++sweep) {
     // A cell's gain depends only on the beams through it: after the first sweep only cells on
     // beams through a flipped cell need a new look.
+    // The gains are read-only work: each worker takes a chunk of the cells, and the chunks'
+    // candidates are joined in order (the sort below breaks ties by cell anyway).
+    const unsigned workers = workersFor(threadCount(), variables.size());
+    std::vector<std::vector<std::pair<double, std::size_t>>> found(workers);
+    forEachChunk(variables.size(), workers, [&](std::size_t begin, std::size_t end, unsigned w) {
+      for (std::size_t v = begin; v < end; ++v) {
+        if (!dirty[variables[v]]) continue;
+        const double gain = flipDelta(variables[v]);
+        if (gain > kMinGain) found[w].emplace_back(gain, variables[v]);
+        if (progress && w + 1 == workers && (v - begin) % 100000 == 0) {
+          progress("sweep " + std::to_string(sweep + 1), 0.5 * (v - begin) / (end - begin));
+        }
+      }
+    });
     candidates.clear();
-    for (std::size_t v = 0; v < variables.size(); ++v) {
-      if (!dirty[variables[v]]) continue;
-      const double gain = flipDelta(variables[v]);
-      if (gain > kMinGain) candidates.emplace_back(gain, variables[v]);
-      if (progress && v % 100000 == 0) progress("sweep " + std::to_string(sweep + 1), 0.5 * v / variables.size());
-    }
+    for (const auto& part : found) candidates.insert(candidates.end(), part.begin(), part.end());
     std::sort(candidates.begin(), candidates.end(),
               [](const std::pair<double, std::size_t>& a, const std::pair<double, std::size_t>& b) {
                 return a.first > b.first || (a.first == b.first && a.second < b.second);

@@ -196,9 +196,8 @@ std::optional<OnlineOptimizerInput> MappingSession::onlinePassInput() {
   if (version_ == online_input_version_ || mapper_.scanStore().scans().empty()) return std::nullopt;
   online_input_version_ = version_;
   MapSnapshot copy = mapper_.optimizationInput();
-  OnlineOptimizerInput input{std::move(copy.scans), std::move(copy.slice), version_, newest_stamp_};
-  input.options = mapper_.options().optimizer;
-  input.options_version = options_version_;
+  OnlineOptimizerInput input{std::move(copy.scans), std::move(copy.slice), version_, newest_stamp_,
+                             mapper_.options().optimizer, options_version_};
   return input;
 }
 

@@ -3,8 +3,16 @@
 #include <chrono>
 #include <cmath>
 
+#ifdef __linux__
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+#endif
+
 namespace octo_slice_mapper {
 namespace {
+
+constexpr int kPassNice = 10;
 
 bool sameScan(const StoredScan& a, const StoredScan& b) {
   return a.origin == b.origin && a.rotation.coeffs() == b.rotation.coeffs() && a.angle_min == b.angle_min &&
@@ -74,6 +82,11 @@ void OnlineOptimizer::forget() {
 }
 
 void OnlineOptimizer::run() {
+#ifdef __linux__
+  // The pass yields to insertion: below the mapping threads' priority (Linux's nice is per
+  // thread; the pass's own worker threads inherit it). Not allowed to: it runs at theirs.
+  setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), kPassNice);
+#endif
   std::unique_lock<std::mutex> lock(mutex_);
   for (;;) {
     wake_.wait(lock, [this] { return stopping_ || waiting_.has_value(); });

@@ -56,6 +56,8 @@ const std::vector<OptionSpec<MapperOptions>>& mapperOptionTable() {
       {"forward_beam_opening_angle", "rad", "global pass: beam cone (0 = a thin beam along its axis)",
        [](O& o) -> OptionField { return &o.optimizer.beam_opening_angle; }},
       {"max_sweeps", "", "global pass: at most this many sweeps", [](O& o) -> OptionField { return &o.optimizer.max_sweeps; }},
+      {"optimizer_threads", "", "global pass: worker threads (0 = every core; the map is the same for any number)",
+       [](O& o) -> OptionField { return &o.optimizer.threads; }},
   };
   return table;
 }

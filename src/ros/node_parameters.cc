@@ -57,7 +57,7 @@ const std::vector<OptionSpec<NodeOptions>>& nodeOptionTable() {
        [](O& o) -> OptionField { return &o.write_optimized_into_map; }},
       {"online_optimize", "", "keep running the global pass in the background",
        [](O& o) -> OptionField { return &o.online_optimize; }},
-      {"online_optimize_period", "s", "between looks for a changed map to optimize",
+      {"online_optimize_period", "s", "between looks for a finished pass and a changed map",
        [](O& o) -> OptionField { return &o.online_optimize_period; }},
   };
   return table;

@@ -26,7 +26,7 @@ struct NodeOptions {
   bool optimize_warm_start = true;  // ... starting from the incremental map (false: all-free, the lab's start)
   bool write_optimized_into_map = true;  // the global pass's result goes into the octree's slice band
   bool online_optimize = true;           // keep running the global pass in the background: ~optimized_map
-  double online_optimize_period = 1.0;   // s (wall) between looks for a changed map to optimize
+  double online_optimize_period = 0.2;   // s (wall) between looks for a finished pass and a changed map
 };
 
 // The node's own options, named once like the mapper's (option_table.h); maps_dir's default is

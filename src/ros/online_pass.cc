@@ -33,7 +33,10 @@ void OnlinePass::tick(const ros::WallTimerEvent&) {
   if (std::optional<OnlineOptimizerResult> result = optimizer_.take()) {
     nav_msgs::OccupancyGrid grid;
     const ros::Time now = ros::Time::now();
-    toOccupancyGrid(result->map.grid, slice_min_z_, frame_id_, now, &grid);
+    // Stamped with the newest scan the map explains (how fresh it is); map_load_time is when it
+    // went out.
+    toOccupancyGrid(result->map.grid, slice_min_z_, frame_id_, ros::Time(result->newest_stamp), &grid);
+    grid.info.map_load_time = now;
     const double age = now.toSec() - result->newest_stamp;
     {
       std::lock_guard<std::mutex> lock(mutex_);
