@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cstring>
+
 #include <atomic>
 #include <cstdlib>
 #include <thread>
@@ -165,6 +167,48 @@ TEST_F(MappingSessionTest, OnlinePassInputOnlyWhenTheMapChanged) {
   input = session.onlinePassInput();
   ASSERT_TRUE(input);
   EXPECT_EQ(input->scans.size(), 11u);
+}
+
+bool sameScans(const std::vector<StoredScan>& a, const std::vector<StoredScan>& b) {
+  if (a.size() != b.size()) return false;
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    // Byte for byte: the simulated scans hold NaN readings, which never compare equal.
+    if (a[k].origin != b[k].origin || a[k].ranges.size() != b[k].ranges.size() ||
+        std::memcmp(a[k].ranges.data(), b[k].ranges.data(), a[k].ranges.size() * sizeof(float)) != 0) {
+      return false;
+    }
+  }
+  return true;
+}
+
+// The pass's copy of the kept scans is kept up to date by appending under the lock: it must be
+// the store's scans after appends, after a box clear dropped some, after a reset, after thinning.
+TEST_F(MappingSessionTest, OnlinePassInputHoldsTheStoresScansWhateverChangedThem) {
+  MapperOptions options;
+  options.scan_store.max_scans = 30;  // thinning at the 31st
+  MappingSession session{options, SessionOptions()};
+  const auto kept = [&] { return session.withMapper([](const Mapper& m) { return m.scanStore().scans(); }); };
+  const auto check = [&](const char* after) {
+    std::optional<OnlineOptimizerInput> input = session.onlinePassInput();
+    ASSERT_TRUE(input) << after;
+    EXPECT_TRUE(sameScans(input->scans, kept())) << after << ": " << input->scans.size() << " vs " << kept().size();
+  };
+  insertAll(&session, 0, 10);
+  check("the first scans");
+  insertAll(&session, 10, 20);
+  check("appending");
+  Mapper::Cleared cleared;
+  std::string error;
+  const Eigen::Vector3d origin = kept()[3].origin.cast<double>();
+  ASSERT_TRUE(session.clearBox(origin - Eigen::Vector3d::Constant(0.3), origin + Eigen::Vector3d::Constant(0.3),
+                               &cleared, &error)) << error;
+  ASSERT_LT(kept().size(), 20u) << "the box should drop the scans whose beams cross it";
+  check("a box clear");
+  insertAll(&session, 20, 40);
+  check("thinning when full");
+  session.reset();
+  insertAll(&session, 0, 5);
+  check("a reset");
 }
 
 }  // namespace

@@ -9,8 +9,8 @@
 // the cells the new scans' beams cross and the cells the last result did not know
 // (GlobalOptimizer::cellsToRevisit): the same map as a full first sweep, at a fraction of its cost
 // (Freiburg 079, all scans: one full sweep 1.8 s). Otherwise the pass looks at every cell.
-// The pass uses every core (GlobalOptimizerOptions::threads) at a lower priority than the
-// thread that inserts scans (Linux nice 10), so that insertion never waits for it.
+// The pass runs at a lower priority (Linux nice 10) than the thread that inserts scans, on
+// GlobalOptimizerOptions::threads workers (the node gives it one: ~online_optimize_threads).
 #pragma once
 
 #include <condition_variable>

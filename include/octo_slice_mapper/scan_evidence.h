@@ -100,6 +100,8 @@ class ScanEvidence {
     return sum;
   }
   EvidenceCombining combining() const { return combining_; }
+  // Between scans only (the window empty): scans and clouds combine differently.
+  void setCombining(EvidenceCombining combining) { combining_ = combining; }
 
  private:
   // Power-of-two strides: an index converts back to its key by shifts and masks (drain needs the

@@ -26,6 +26,25 @@ struct InsertOptions {
   double max_range = 0.0;
   // How the beams of one scan combine per voxel (see ScanEvidence).
   EvidenceCombining combining = EvidenceCombining::kSum;
+
+  // Point clouds (a depth camera, issue 22).
+  // One ray per voxel that returns end in, aimed at their mean point (as OctoMap's discretize
+  // mode: one ray per end voxel), instead of one per point: a 640 x 480 frame has 300 000 points
+  // but a few thousand end voxels. false: one ray per point.
+  bool cloud_one_ray_per_voxel = true;
+  // Returns farther than this are cut like max_range's: cleared up to it, nothing marked
+  // (0 = max_range). A depth camera's far depth is noisy (Kinect: 4 cm at 4.5 m).
+  double cloud_max_range = 0.0;
+  // Only returns within this height band (map frame, m) mark a voxel occupied; those outside
+  // (the floor, the ceiling) clear up to themselves and mark nothing, so the floor stays out of
+  // the slice and a person walking away leaves no trail.
+  double cloud_mark_min_z = 0.05;
+  double cloud_mark_max_z = 1e9;
+  // How a cloud's rays combine per voxel. Occupied wins (as octomap_server's insertScan): a
+  // frame's rays graze the surfaces they end beside, and summed, the free evidence of hundreds of
+  // them erased a table top's underside seen from below (cloud_insertion_test). With kSum each
+  // end-voxel ray counts as many rays as points end in its voxel.
+  EvidenceCombining cloud_combining = EvidenceCombining::kOccupiedWins;
 };
 
 struct InsertResult {
@@ -45,6 +64,9 @@ struct Beam {
   bool hit;                   // false = clear only
   // Unit vector across the cone in the scan plane (zero for point-cloud beams, traced on axis).
   Eigen::Vector3d across = Eigen::Vector3d::Zero();
+  // How many returns the beam stands for (a cloud's ray to an end voxel: the points ending there):
+  // its evidence counts that many times, as that many rays along nearly the same path would.
+  float weight = 1.0f;
 };
 
 // Which voxels a beam reaches: the voxels its axis crosses (judged as on the axis), plus, where
@@ -65,8 +87,13 @@ class ScanInserter {
 
   InsertResult insert(const Scan& scan);
   // Points from a 3D sensor: each is a return seen from `origin`; `half_angle` is the cone.
+  // Non-finite points are counted (nan / inf) and skipped.
   InsertResult insertPoints(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points,
                             double half_angle);
+  // The interpretation of a cloud as beams (InsertOptions' cloud_* rules), in a deterministic
+  // order: exposed for tests and the reference implementation.
+  std::vector<Beam> cloudBeams(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points,
+                               ReadingCounts* counts) const;
   // The interpretation of a scan as beams (exposed for tests and the reference implementation).
   std::vector<Beam> beamsOf(const Scan& scan, ReadingCounts* counts) const;
 
@@ -77,6 +104,9 @@ class ScanInserter {
   // not where a voxel is surely in the free valley (the pairs must be the same).
   void traceEvidence(const Scan& scan, const std::function<void(const octomap::OcTreeKey&, float)>& fn,
                      bool shortcuts = false);
+  // The same for any beams from `origin` (a cloud's, from cloudBeams).
+  void traceEvidence(const Eigen::Vector3d& origin, const std::vector<Beam>& beams, double half_angle,
+                     const std::function<void(const octomap::OcTreeKey&, float)>& fn, bool shortcuts = false);
 
   // Per-voxel log-odds updates of one scan before they are applied, in traversal order.
   std::vector<KeyUpdate> computeUpdates(const Eigen::Vector3d& origin, const std::vector<Beam>& beams,

@@ -51,6 +51,9 @@ class ScanStore {
   std::uint64_t skippedByKeyframe() const { return skipped_; }
   std::uint64_t skippedAsRevisit() const { return revisits_; }
   std::uint64_t droppedWhenFull() const { return dropped_; }
+  // Counts the changes other than appending a scan (thinning, removeIf, clear): while it stays
+  // the same, a copy of scans() can be brought up to date by appending the scans past its end.
+  std::uint64_t rewrites() const { return rewrites_; }
 
  private:
   std::uint64_t revisitBin(const Eigen::Vector3f& origin, const Eigen::Quaternionf& rotation) const;
@@ -59,6 +62,7 @@ class ScanStore {
   std::vector<StoredScan> scans_;
   std::unordered_set<std::uint64_t> visited_;  // revisit bins of the kept scans
   std::uint64_t skipped_ = 0, dropped_ = 0, revisits_ = 0;
+  std::uint64_t rewrites_ = 0;
 };
 
 }  // namespace octo_slice_mapper

@@ -137,6 +137,7 @@ void MappingSession::reset() {
   Lock lock(this);
   mapper_.reset();
   newest_stamp_ = 0.0;
+  generation_++;
   version_++, changes_++;
 }
 
@@ -172,6 +173,7 @@ bool MappingSession::load(const std::string& path, std::string* error) {
   std::lock_guard<std::mutex> one(one_at_a_time_);
   Lock lock(this);
   if (!mapper_.load(path, error)) return false;
+  generation_++;
   version_++, changes_++;
   return true;
 }
@@ -192,12 +194,29 @@ bool MappingSession::savedAlready(const std::string& prefix) const {
 }
 
 std::optional<OnlineOptimizerInput> MappingSession::onlinePassInput() {
-  Lock lock(this);
-  if (version_ == online_input_version_ || mapper_.scanStore().scans().empty()) return std::nullopt;
-  online_input_version_ = version_;
-  MapSnapshot copy = mapper_.optimizationInput();
-  OnlineOptimizerInput input{std::move(copy.scans), std::move(copy.slice), version_, newest_stamp_,
-                             mapper_.options().optimizer, options_version_};
+  std::lock_guard<std::mutex> online(online_mutex_);
+  OnlineOptimizerInput input;
+  {
+    Lock lock(this);
+    const ScanStore& store = mapper_.scanStore();
+    if (version_ == online_input_version_ || store.scans().empty()) return std::nullopt;
+    online_input_version_ = version_;
+    const std::vector<StoredScan>& kept = store.scans();
+    if (online_generation_ != generation_ || online_rewrites_ != store.rewrites() || online_scans_.size() > kept.size()) {
+      online_scans_ = kept;  // thinned, cleared or begun anew: the whole copy, rarely
+      online_generation_ = generation_;
+      online_rewrites_ = store.rewrites();
+    } else {
+      online_scans_.insert(online_scans_.end(), kept.begin() + static_cast<std::ptrdiff_t>(online_scans_.size()),
+                           kept.end());
+    }
+    input.incremental = gridImageOf(mapper_.slice());
+    input.version = version_;
+    input.newest_stamp = newest_stamp_;
+    input.options = mapper_.options().optimizer;
+    input.options_version = options_version_;
+  }
+  input.scans = online_scans_;
   return input;
 }
 

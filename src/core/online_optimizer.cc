@@ -83,8 +83,9 @@ void OnlineOptimizer::forget() {
 
 void OnlineOptimizer::run() {
 #ifdef __linux__
-  // The pass yields to insertion: below the mapping threads' priority (Linux's nice is per
-  // thread; the pass's own worker threads inherit it). Not allowed to: it runs at theirs.
+  // Background work: below the mapping threads' priority when both want a core (Linux's nice is
+  // per thread; the pass's own worker threads inherit it). Not SCHED_IDLE: on a busy robot that
+  // would starve the pass, and it did not lower the scans' p99 latency here either.
   setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), kPassNice);
 #endif
   std::unique_lock<std::mutex> lock(mutex_);

@@ -52,6 +52,7 @@ bool ScanStore::add(const Scan& scan) {
     }
     dropped_ += scans_.size() - kept;
     scans_.resize(kept);
+    ++rewrites_;
     visited_.clear();  // places of dropped scans may be kept again
     if (revisits) {
       for (const StoredScan& s : scans_) visited_.insert(revisitBin(s.origin, s.rotation));
@@ -73,6 +74,7 @@ std::size_t ScanStore::removeIf(const std::function<bool(const StoredScan&)>& dr
   const std::size_t removed = scans_.size() - kept;
   scans_.resize(kept);
   if (removed > 0) {  // the places of dropped scans may be kept again
+    ++rewrites_;
     visited_.clear();
     for (const StoredScan& s : scans_) {
       if (options_.revisit_cell > 0.0 && options_.revisit_angle > 0.0 && s.origin.allFinite()) {
@@ -87,6 +89,7 @@ void ScanStore::clear() {
   scans_.clear();
   visited_.clear();
   skipped_ = dropped_ = revisits_ = 0;
+  ++rewrites_;
 }
 
 std::size_t ScanStore::memoryBytes() const {

@@ -89,7 +89,11 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
     online_pass_ = std::make_unique<OnlinePass>(
         pnh_, mapper.optimizer, mapper.resolution,
         mapper.slice.min_z, options_.frame_id, options_.online_optimize_period,
-        [this] { return session_.onlinePassInput(); });
+        [this] {
+          std::optional<OnlineOptimizerInput> input = session_.onlinePassInput();
+          if (input && input->options) input->options->threads = options_.online_optimize_threads;
+          return input;
+        });
   }
   services_ = std::make_unique<MapperServices>(nh_, pnh_, options_, &session_, &publisher_, online_pass_.get());
   reconfigure_ = std::make_unique<LiveReconfigure>(

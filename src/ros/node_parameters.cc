@@ -59,6 +59,8 @@ const std::vector<OptionSpec<NodeOptions>>& nodeOptionTable() {
        [](O& o) -> OptionField { return &o.online_optimize; }},
       {"online_optimize_period", "s", "between looks for a finished pass and a changed map",
        [](O& o) -> OptionField { return &o.online_optimize_period; }},
+      {"online_optimize_threads", "", "worker threads of the background pass (0 = every core)",
+       [](O& o) -> OptionField { return &o.online_optimize_threads; }},
   };
   return table;
 }

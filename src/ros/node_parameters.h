@@ -26,7 +26,10 @@ struct NodeOptions {
   bool optimize_warm_start = true;  // ... starting from the incremental map (false: all-free, the lab's start)
   bool write_optimized_into_map = true;  // the global pass's result goes into the octree's slice band
   bool online_optimize = true;           // keep running the global pass in the background: ~optimized_map
-  double online_optimize_period = 0.2;   // s (wall) between looks for a finished pass and a changed map
+  double online_optimize_period = 0.5;   // s (wall) between looks for a finished pass and a changed map
+  // Worker threads of the background pass. One: a second one made it 25 % faster but doubled the
+  // scans' p99 latency at 40 Hz (bench/run_live_latency); saves and ~optimize use every core.
+  int online_optimize_threads = 1;
 };
 
 // The node's own options, named once like the mapper's (option_table.h); maps_dir's default is

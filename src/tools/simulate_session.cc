@@ -1,10 +1,16 @@
 // simulate_session: writes the deterministic simulated TurtleBot run as a rosbag, plus the
 // ground-truth map, for the demo and the tests.
 //
-//   simulate_session --bag FILE.bag --truth PREFIX [--seed N]
+//   simulate_session --bag FILE.bag --truth PREFIX [--seed N] [--real-robot]
 //
 // Topics: /scan (LaserScan, frame "laser"), /tf (odom -> base_footprint -> base_link),
 // /tf_static (base_link -> laser: x 0.10, z 0.26), /odom (nav_msgs/Odometry).
+//
+// --real-robot: the traits of a real TurtleBot's recording (issue 21): a REP 117 driver (+inf no
+// return, -inf too close, NaN), the lidar mounted yawed 20 deg and 3 cm to the side, odometry
+// from dead reckoning (drifting, ~1 deg of pitch and roll, base height moving by 2 cm), the first
+// second of scans before any tf, and a few scans recorded out of order. Prints what it wrote as a
+// JSON line, for the test that replays it.
 #include <geometry_msgs/TransformStamped.h>
 #include <nav_msgs/Odometry.h>
 #include <rosbag/bag.h>
@@ -16,6 +22,12 @@
 #include <cstring>
 #include <iostream>
 #include <string>
+
+#include <tf2_eigen/tf2_eigen.h>
+
+#include <cmath>
+#include <limits>
+#include <set>
 
 #include "octo_slice_mapper/map_io.h"
 #include "octo_slice_mapper/sim/session.h"
@@ -29,7 +41,7 @@ namespace {
 const double kStartTime = 1000.0;  // bag time of t = 0 (ROS time 0 means "unset")
 
 void usage() {
-  std::cerr << "usage: simulate_session --bag FILE.bag --truth PREFIX [--seed N]\n";
+  std::cerr << "usage: simulate_session --bag FILE.bag --truth PREFIX [--seed N] [--real-robot]\n";
 }
 
 }  // namespace
@@ -37,9 +49,15 @@ void usage() {
 int main(int argc, char** argv) {
   std::string bag_path, truth_prefix;
   auto spec = octo_slice_mapper::sim::SessionSpec::officeTour();
+  bool real_robot = false;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
-    if (arg == "--bag" && i + 1 < argc) bag_path = argv[++i];
+    if (arg == "--real-robot") {
+      const std::uint32_t seed = spec.seed;
+      spec = octo_slice_mapper::sim::SessionSpec::realRobotTour();
+      spec.seed = seed;
+      real_robot = true;
+    } else if (arg == "--bag" && i + 1 < argc) bag_path = argv[++i];
     else if (arg == "--truth" && i + 1 < argc) truth_prefix = argv[++i];
     else if (arg == "--seed" && i + 1 < argc) spec.seed = static_cast<std::uint32_t>(std::stoul(argv[++i]));
     else {
@@ -66,8 +84,8 @@ int main(int argc, char** argv) {
     rosbag::Bag bag(tmp_bag, rosbag::bagmode::Write);
     const ros::Time t0(kStartTime);
     tf2_msgs::TFMessage statics;
-    statics.transforms.push_back(
-        planarTransform("base_link", "laser", t0, spec.lidar.mount_x, 0.0, spec.lidar.mount_z, 0.0));
+    statics.transforms.push_back(planarTransform("base_link", "laser", t0, spec.lidar.mount_x, spec.lidar.mount_y,
+                                                 spec.lidar.mount_z, spec.lidar.mount_yaw));
     auto latched = boost::make_shared<ros::M_string>();
     (*latched)["latching"] = "1";
     (*latched)["callerid"] = "/simulate_session";
@@ -76,10 +94,25 @@ int main(int argc, char** argv) {
     (*latched)["message_definition"] = ros::message_traits::definition<tf2_msgs::TFMessage>();
     bag.write("/tf_static", t0, statics, latched);
 
-    for (const Pose2D& p : session.poses()) {
+    // A real robot's odometry: dead reckoning, and its tf starts a second after the lidar.
+    const std::vector<octo_slice_mapper::sim::Pose3D> odometry =
+        octo_slice_mapper::sim::deadReckoned(session.poses(), octo_slice_mapper::sim::DeadReckoning());
+    double first_tf = -1.0;  // the stamp of the first tf written (a second in for a real robot)
+    for (std::size_t k = 0; k < session.poses().size(); ++k) {
+      const Pose2D& p = session.poses()[k];
+      if (real_robot && p.t < 1.0) continue;
+      if (first_tf < 0.0) first_tf = p.t;
       const ros::Time stamp(kStartTime + p.t);
       tf2_msgs::TFMessage tf;
-      tf.transforms.push_back(planarTransform("odom", "base_footprint", stamp, p.x, p.y, 0.0, p.yaw));
+      if (real_robot) {
+        geometry_msgs::TransformStamped odom_tf = tf2::eigenToTransform(odometry[k].pose);
+        odom_tf.header.frame_id = "odom";
+        odom_tf.header.stamp = stamp;
+        odom_tf.child_frame_id = "base_footprint";
+        tf.transforms.push_back(odom_tf);
+      } else {
+        tf.transforms.push_back(planarTransform("odom", "base_footprint", stamp, p.x, p.y, 0.0, p.yaw));
+      }
       tf.transforms.push_back(planarTransform("base_footprint", "base_link", stamp, 0.0, 0.0, 0.0, 0.0));
       bag.write("/tf", stamp, tf);
       nav_msgs::Odometry odom;
@@ -96,9 +129,21 @@ int main(int argc, char** argv) {
     }
 
     std::mt19937 rng(spec.seed);
-    std::size_t count = 0;
-    for (double t : session.scanTimes()) {
+    std::size_t count = 0, before_tf = 0, plus_inf = 0, minus_inf = 0, nans = 0;
+    const std::vector<double> times = session.scanTimes();
+    // Scans recorded out of order: each of these is written after the one that follows it.
+    const std::set<std::size_t> late = real_robot ? std::set<std::size_t>{50, 120, 200, 333} : std::set<std::size_t>{};
+    for (std::size_t k = 0; k < times.size(); ++k) {
+      const double t = times[k];
       const octo_slice_mapper::Scan scan = session.scanAt(t, &rng);
+      // Compared as stamps (nanoseconds), as tf compares them.
+      const bool placeable = ros::Time(kStartTime + t) >= ros::Time(kStartTime + first_tf);
+      if (!placeable) ++before_tf;
+      // The readings of the scans the mapper can place (a transform exists at their stamp).
+      for (float r : placeable ? scan.ranges : std::vector<float>()) {
+        if (std::isnan(r)) ++nans;
+        else if (std::isinf(r)) ++(r > 0 ? plus_inf : minus_inf);
+      }
       sensor_msgs::LaserScan msg;
       msg.header.stamp = ros::Time(kStartTime + t);
       msg.header.frame_id = "laser";
@@ -111,7 +156,10 @@ int main(int argc, char** argv) {
       msg.range_min = scan.range_min;
       msg.range_max = scan.range_max;
       msg.ranges = scan.ranges;
-      bag.write("/scan", msg.header.stamp, msg);
+      // A late scan and the next one trade places in the recording (bag time = arrival).
+      const bool is_late = late.count(k) > 0, after_late = k > 0 && late.count(k - 1) > 0;
+      const double arrival = is_late ? times[k + 1] + 1e-4 : after_late ? times[k - 1] : t;
+      bag.write("/scan", ros::Time(kStartTime + arrival), msg);
       ++count;
     }
     bag.close();
@@ -121,6 +169,11 @@ int main(int argc, char** argv) {
     }
     std::cout << "simulate_session: wrote " << bag_path << " (" << count << " scans, " << session.duration()
               << " s) and " << truth_prefix << ".{pgm,yaml}\n";
+    if (real_robot) {
+      std::printf("{\"scans\": %zu, \"scans_before_tf\": %zu, \"scans_out_of_order\": %zu, \"plus_inf\": %zu, "
+                  "\"minus_inf\": %zu, \"nan\": %zu, \"beams_per_scan\": %d}\n",
+                  count, before_tf, late.size(), plus_inf, minus_inf, nans, spec.lidar.beams);
+    }
   } catch (const std::exception& e) {
     std::remove(tmp_bag.c_str());
     std::cerr << "simulate_session: " << e.what() << "\n";

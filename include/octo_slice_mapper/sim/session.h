@@ -34,8 +34,13 @@ struct LidarSpec {
   // Width of each beam's cone (rad): the reading is the nearest obstacle anywhere in it, like a
   // sonar. 0 = a laser's thin beam.
   double beam_width = 0.0;
-  // Laser mount on base_link (the lab's TurtleBot: 0.10 m forward, 0.26 m up).
+  // Laser mount on base_link (the lab's TurtleBot: 0.10 m forward, 0.26 m up), and a yaw and
+  // sideways offset as real mounts have.
   double mount_x = 0.10, mount_z = 0.26;
+  double mount_y = 0.0, mount_yaw = 0.0;
+  // A REP 117 driver: no return as +inf, too close (the dropouts) as -inf. Else the pre-REP
+  // style: no return as range_max, dropouts as 0.0.
+  bool rep117 = false;
 };
 
 struct SessionSpec {
@@ -51,7 +56,33 @@ struct SessionSpec {
   // Straight down FloorPlan::doorCorridor() past the door with a ring of 24 sonar-like range
   // sensors: 20 deg cones, 15 deg apart, 5 m.
   static SessionSpec corridorPass();
+  // The office tour as a real TurtleBot records it (issue 21): a REP 117 driver, a lidar mounted
+  // 20 deg yawed and 3 cm to the side. (The odometry's drift and tilt are DeadReckoning's.)
+  static SessionSpec realRobotTour();
 };
+
+// Odometry as a real robot integrates it: the true motion's increments with a scale error, a
+// yaw-rate bias and noise (so the odom frame drifts away from the world), and an IMU-fused
+// attitude with about a degree of pitch and roll and a base height that moves by centimetres.
+struct DeadReckoning {
+  // A gyro-fused TurtleBot's: wheels 0.3 % off, the gyro's scale 0.2 % and bias 0.02 deg/s.
+  // (1 % and 0.1 deg/s turned the office tour's map 15 deg by its end.)
+  double distance_scale = 1.003;
+  double yaw_scale = 0.998;
+  double yaw_bias = 0.0003;        // rad/s
+  double noise_per_step = 0.0003;  // m and rad, per odometry step
+  double tilt = 0.017;            // rad, amplitude of pitch and roll
+  double height = 0.02;           // m, amplitude of the base height
+  std::uint32_t seed = 7;
+};
+
+struct Pose3D {
+  double t = 0.0;
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();  // base_footprint in odom
+};
+
+// The odometry poses for the true `poses` (the first one is where odom starts).
+std::vector<Pose3D> deadReckoned(const std::vector<Pose2D>& poses, const DeadReckoning& model);
 
 class SimulatedSession {
  public:

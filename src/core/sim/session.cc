@@ -24,6 +24,14 @@ SessionSpec SessionSpec::officeTour() {
   return spec;
 }
 
+SessionSpec SessionSpec::realRobotTour() {
+  SessionSpec spec = officeTour();
+  spec.lidar.rep117 = true;
+  spec.lidar.mount_yaw = 0.349;  // 20 deg
+  spec.lidar.mount_y = 0.03;
+  return spec;
+}
+
 SessionSpec SessionSpec::corridorPass() {
   SessionSpec spec;
   spec.waypoints = {{0.6, 0.5 * kDoorCorridorWidth}, {9.4, 0.5 * kDoorCorridorWidth}};
@@ -101,7 +109,8 @@ Eigen::Isometry3d SimulatedSession::laserPose(const Pose2D& base) const {
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   pose.translate(Eigen::Vector3d(base.x, base.y, 0.0));
   pose.rotate(Eigen::AngleAxisd(base.yaw, Eigen::Vector3d::UnitZ()));
-  pose.translate(Eigen::Vector3d(spec_.lidar.mount_x, 0.0, spec_.lidar.mount_z));
+  pose.translate(Eigen::Vector3d(spec_.lidar.mount_x, spec_.lidar.mount_y, spec_.lidar.mount_z));
+  pose.rotate(Eigen::AngleAxisd(spec_.lidar.mount_yaw, Eigen::Vector3d::UnitZ()));
   return pose;
 }
 
@@ -139,10 +148,10 @@ Scan SimulatedSession::scanAt(double t, std::mt19937* rng) const {
     if (u < lidar.nan_probability) {
       r = std::numeric_limits<float>::quiet_NaN();
     } else if (u < lidar.nan_probability + lidar.dropout_probability) {
-      r = 0.0f;
+      r = lidar.rep117 ? -std::numeric_limits<float>::infinity() : 0.0f;
     } else if (u < lidar.nan_probability + lidar.dropout_probability + lidar.spurious_no_return_probability ||
                truth >= lidar.range_max) {
-      r = lidar.range_max;
+      r = lidar.rep117 ? std::numeric_limits<float>::infinity() : lidar.range_max;
     } else {
       const double sigma = truth < 1.0 ? lidar.noise_sigma_near : lidar.noise_fraction_far * truth;
       r = static_cast<float>(std::max(static_cast<double>(lidar.range_min), truth + sigma * noise));
@@ -151,6 +160,40 @@ Scan SimulatedSession::scanAt(double t, std::mt19937* rng) const {
     scan.ranges[static_cast<std::size_t>(i)] = r;
   }
   return scan;
+}
+
+std::vector<Pose3D> deadReckoned(const std::vector<Pose2D>& poses, const DeadReckoning& model) {
+  std::vector<Pose3D> out;
+  if (poses.empty()) return out;
+  std::mt19937 rng(model.seed);
+  std::normal_distribution<double> noise(0.0, model.noise_per_step);
+  double x = poses[0].x, y = poses[0].y, yaw = poses[0].yaw;
+  for (std::size_t k = 0; k < poses.size(); ++k) {
+    if (k > 0) {
+      const Pose2D& a = poses[k - 1];
+      const Pose2D& b = poses[k];
+      // The step as the wheels measure it, in the robot's frame, applied to the odometry's pose.
+      const double c = std::cos(a.yaw), s = std::sin(a.yaw);
+      const double forward = c * (b.x - a.x) + s * (b.y - a.y), side = -s * (b.x - a.x) + c * (b.y - a.y);
+      const double turn = wrapAngle(b.yaw - a.yaw);
+      const double moving = std::abs(forward) + std::abs(turn) > 1e-9 ? 1.0 : 0.0;
+      const double f = forward * model.distance_scale + moving * noise(rng);
+      const double l = side * model.distance_scale;
+      x += std::cos(yaw) * f - std::sin(yaw) * l;
+      y += std::sin(yaw) * f + std::cos(yaw) * l;
+      yaw = wrapAngle(yaw + turn * model.yaw_scale + moving * (model.yaw_bias * (b.t - a.t) + noise(rng)));
+    }
+    const double t = poses[k].t;
+    // Slow swaying, as an IMU-fused attitude reports on a moving base.
+    const double roll = model.tilt * std::sin(0.7 * t), pitch = model.tilt * std::sin(0.43 * t + 1.0);
+    Pose3D p;
+    p.t = t;
+    p.pose.translate(Eigen::Vector3d(x, y, model.height * std::sin(0.9 * t)));
+    p.pose.rotate(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+                  Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()));
+    out.push_back(p);
+  }
+  return out;
 }
 
 std::vector<Scan> SimulatedSession::allScans() const {

@@ -1,0 +1,226 @@
+// bench_cloud_insertion: depth-camera frames into the octree (issue 22), against OctoMap's own
+// methods, in one process.
+//
+//   bench_cloud_insertion [--frames N] [--resolution M]
+//
+// Frames come from the simulated Kinect-class camera (sim/depth_camera.h: 640 x 480, 57 x 43 deg,
+// 0.5-4.5 m, the Kinect's depth noise) in the simulated office room, in two scenes: "desk" (the
+// camera above the table, looking down at it: ranges 0.5-2 m) and "room" (from a corner across
+// the room: up to 4.5 m). Each scene's frames (the camera moving 2 cm and turning 0.5 deg between
+// them) go, in order, into a fresh 0.05 m octree per method:
+//   ours: the node's path: PointCloud2 (organized, NaN where no depth) -> checked, converted to
+//         the map frame (toCoreCloud) -> Mapper::insertPoints (full inverse model, one ray per
+//         end voxel); "per point": the same with one ray per point (the path before issue 22);
+//   octomap insertPointCloud, and insertPointCloud(..., discretize = true) (one ray per end
+//         voxel), given the frame's finite points already in the map frame.
+// Prints per scene the median ms per frame and the ratios, how the end-voxel rays' map differs from
+// the per-point one, and a JSON line. --ours-only: only ours, 20 times (for profiling).
+#include <octomap/OcTree.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <sensor_msgs/point_cloud2_iterator.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include "bench_common.h"
+#include "octo_slice_mapper/map_io.h"
+#include "octo_slice_mapper/mapper.h"
+#include "octo_slice_mapper/sim/depth_camera.h"
+#include "ros/point_cloud_conversion.h"
+
+namespace osm = octo_slice_mapper;
+using osm::bench::median;
+
+namespace {
+
+struct Frame {
+  Eigen::Isometry3d optical_in_map;
+  sensor_msgs::PointCloud2 msg;  // in the optical frame, organized
+  octomap::Pointcloud points;    // its finite points in the map frame (for OctoMap's methods)
+  std::size_t valid = 0;
+};
+
+sensor_msgs::PointCloud2 toMessage(const std::vector<Eigen::Vector3f>& points, int width, int height) {
+  sensor_msgs::PointCloud2 msg;
+  msg.header.frame_id = "camera_depth_optical_frame";
+  sensor_msgs::PointCloud2Modifier modifier(msg);
+  modifier.setPointCloud2FieldsByString(1, "xyz");
+  modifier.resize(std::size_t(width) * height);
+  msg.width = width;
+  msg.height = height;
+  msg.row_step = msg.point_step * width;
+  msg.is_dense = false;
+  sensor_msgs::PointCloud2Iterator<float> x(msg, "x"), y(msg, "y"), z(msg, "z");
+  for (const Eigen::Vector3f& p : points) {
+    *x = p.x(), *y = p.y(), *z = p.z();
+    ++x, ++y, ++z;
+  }
+  return msg;
+}
+
+std::vector<Frame> framesOf(const osm::sim::BoxScene& scene, const Eigen::Vector3d& start, double yaw, double pitch,
+                            int count) {
+  osm::sim::DepthCameraSpec spec;
+  std::mt19937 rng(3);
+  std::vector<Frame> frames;
+  for (int k = 0; k < count; ++k) {
+    Frame f;
+    f.optical_in_map = osm::sim::opticalPose(start + Eigen::Vector3d(0.02 * k, 0.01 * k, 0.0), yaw + 0.0087 * k, pitch);
+    const std::vector<Eigen::Vector3f> points = osm::sim::depthFrame(scene, f.optical_in_map, spec, &rng);
+    f.msg = toMessage(points, spec.width, spec.height);
+    for (const Eigen::Vector3f& p : points) {
+      if (!p.allFinite()) continue;
+      const Eigen::Vector3d m = f.optical_in_map * p.cast<double>();
+      f.points.push_back(m.x(), m.y(), m.z());
+      ++f.valid;
+    }
+    frames.push_back(std::move(f));
+  }
+  return frames;
+}
+
+template <typename Insert>
+std::vector<double> timeFrames(const std::vector<Frame>& frames, Insert&& insert) {
+  std::vector<double> ms;
+  for (const Frame& f : frames) {
+    const auto t0 = std::chrono::steady_clock::now();
+    insert(f);
+    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+  }
+  return ms;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int frames_per_scene = 10;
+  double resolution = 0.05;
+  bool ours_only = false;  // for profiling
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "--frames" && i + 1 < argc) frames_per_scene = std::max(1, std::atoi(argv[++i]));
+    else if (arg == "--resolution" && i + 1 < argc) resolution = std::atof(argv[++i]);
+    else if (arg == "--ours-only") ours_only = true;
+    else {
+      std::fprintf(stderr, "usage: bench_cloud_insertion [--frames N] [--resolution M]\n");
+      return 2;
+    }
+  }
+  const osm::sim::BoxScene scene = osm::sim::BoxScene::officeRoom();
+  struct Scene {
+    const char* name;
+    std::vector<Frame> frames;
+  };
+  std::vector<Scene> scenes = {
+      {"desk", framesOf(scene, Eigen::Vector3d(2.0, 1.8, 1.0), 0.0, 0.7, frames_per_scene)},
+      {"room", framesOf(scene, Eigen::Vector3d(0.3, 0.3, 0.30), 0.7, 0.05, frames_per_scene)}};
+  const int repeats = ours_only ? 20 : 1;
+  std::printf("== depth frames, 640 x 480, %.2f m, %d frames per scene (median ms per frame)\n", resolution,
+              frames_per_scene);
+  std::printf("  %-6s %8s %10s %10s %12s %12s %10s %10s\n", "scene", "points", "ours", "per point", "octomap",
+              "discretized", "vs octomap", "vs discr.");
+  std::string json = "{\"bench\": \"cloud_insertion\", \"resolution\": " + std::to_string(resolution) + ", \"scenes\": {";
+  for (std::size_t s = 0; s < scenes.size(); ++s) {
+    const std::vector<Frame>& frames = scenes[s].frames;
+    osm::MapperOptions options;
+    options.resolution = resolution;
+    options.keep_scans = false;
+    options.slice.min_z = 0.05;  // the navigation band (issue 22): floor + margin to above the table
+    options.slice.max_z = 0.80;
+    osm::Mapper mapper(options);
+    osm::SensorCloud cloud;
+    std::vector<double> ours, conversion_ms;
+    for (int r = 0; r < repeats; ++r) {
+      const std::vector<double> run = timeFrames(frames, [&](const Frame& f) {
+      const auto t0 = std::chrono::steady_clock::now();
+      const osm::ros_adapter::ScanRejection rejected = osm::ros_adapter::toCoreCloud(f.msg, f.optical_in_map, &cloud);
+      if (rejected.rejected()) std::fprintf(stderr, "rejected: %s\n", rejected.message.c_str());
+      const auto t1 = std::chrono::steady_clock::now();
+      mapper.insertPoints(cloud.origin, cloud.points);
+      conversion_ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+      });
+      ours.insert(ours.end(), run.begin(), run.end());
+    }
+    // The same path with one ray per point (cloud_one_ray_per_voxel false): what the end-voxel
+    // rays replace, and the map they are compared with.
+    osm::MapperOptions per_point_options = options;
+    per_point_options.insert.cloud_one_ray_per_voxel = false;
+    osm::Mapper per_point(per_point_options);
+    const std::vector<double> each = ours_only ? std::vector<double>{0.0} : timeFrames(frames, [&](const Frame& f) {
+      osm::ros_adapter::toCoreCloud(f.msg, f.optical_in_map, &cloud);
+      per_point.insertPoints(cloud.origin, cloud.points);
+    });
+    // How the end-voxel rays change the map: the per-point map's voxels, by class, in the other.
+    std::size_t same = 0, differ = 0, missing = 0, occupied_per_point = 0, occupied_lost = 0;
+    if (!ours_only) {
+      const octomap::OcTree& a = per_point.tree();
+      const octomap::OcTree& b = mapper.tree();
+      for (auto it = a.begin_leafs(); it != a.end_leafs(); ++it) {
+        const octomap::OcTreeNode* n = b.search(it.getKey());
+        const bool occ = a.isNodeOccupied(*it);
+        occupied_per_point += occ;
+        if (!n) {
+          ++missing;
+          occupied_lost += occ;
+        } else if (b.isNodeOccupied(n) == occ) {
+          ++same;
+        } else {
+          ++differ;
+          occupied_lost += occ;
+        }
+      }
+    }
+    // ... and in the navigation slice: the per-point slice's occupied cells, occupied here too.
+    std::size_t slice_occupied = 0, slice_kept = 0;
+    if (!ours_only) {
+      const osm::GridImage a = osm::gridImageOf(per_point.slice());
+      for (int j = 0; j < a.height; ++j) {
+        for (int i = 0; i < a.width; ++i) {
+          if (a.at(i, j) < 65) continue;
+          ++slice_occupied;
+          slice_kept += mapper.slice().valueAt(a.origin_x + (i + 0.5) * a.resolution,
+                                               a.origin_y + (j + 0.5) * a.resolution) >= 65;
+        }
+      }
+    }
+    octomap::OcTree full(resolution), discretized(resolution);
+    const auto origin = [](const Frame& f) {
+      const Eigen::Vector3d o = f.optical_in_map.translation();
+      return octomap::point3d(o.x(), o.y(), o.z());
+    };
+    const std::vector<double> plain = ours_only ? std::vector<double>{0.0} : timeFrames(frames, [&](const Frame& f) {
+      full.insertPointCloud(f.points, origin(f));
+    });
+    const std::vector<double> discrete = ours_only ? std::vector<double>{0.0} : timeFrames(frames, [&](const Frame& f) {
+      discretized.insertPointCloud(f.points, origin(f), -1.0, false, true);
+    });
+    if (ours_only) std::printf("  (%s: conversion from PointCloud2 %.2f ms of it)\n", scenes[s].name, median(conversion_ms));
+    std::vector<double> valid;
+    for (const Frame& f : frames) valid.push_back(static_cast<double>(f.valid));
+    const double o = median(ours), p = median(plain), d = median(discrete), e = median(each);
+    std::printf("  %-6s %8.0f %10.1f %10.1f %12.1f %12.1f %9.2fx %9.2fx\n", scenes[s].name, median(valid), o, e, p, d,
+                p / o, d / o);
+    const double leaves = std::max<double>(1.0, double(same + differ + missing));
+    if (!ours_only) {
+      std::printf("         end-voxel rays vs one per point: of the per-point map's %zu voxels %.2f %% same class, "
+                  "%.2f %% other class, %.2f %% unknown; of its %zu occupied %.2f %% not occupied\n",
+                  same + differ + missing, 100.0 * same / leaves, 100.0 * differ / leaves, 100.0 * missing / leaves,
+                  occupied_per_point, 100.0 * occupied_lost / std::max<double>(1.0, double(occupied_per_point)));
+      std::printf("         navigation slice (0.05-0.80 m): of the per-point slice's %zu occupied cells %.2f %% occupied\n",
+                  slice_occupied, 100.0 * slice_kept / std::max<double>(1.0, double(slice_occupied)));
+    }
+    char part[600];
+    std::snprintf(part, sizeof part,
+                  "%s\"%s\": {\"points\": %.0f, \"ours_ms\": %.2f, \"ours_per_point_ms\": %.2f, \"octomap_ms\": %.2f, "
+                  "\"discretized_ms\": %.2f, \"same_class\": %.4f, \"occupied_lost\": %.4f}",
+                  s ? ", " : "", scenes[s].name, median(valid), o, e, p, d, same / leaves,
+                  occupied_lost / std::max<double>(1.0, double(occupied_per_point)));
+    json += part;
+  }
+  std::printf("%s}}\n", json.c_str());
+  return 0;
+}

@@ -1,0 +1,51 @@
+// A Kinect-class depth camera in a small 3D world of boxes (issue 22): the frames the cloud
+// benchmark and tests insert. The world: a room (its walls, floor and ceiling seen from inside)
+// with furniture as solid boxes: a table (top at 0.72 m on four legs), a shelf whose overhang
+// hangs above the lidar's plane, and a low step below it.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <random>
+#include <vector>
+
+namespace octo_slice_mapper {
+namespace sim {
+
+struct Box {
+  Eigen::Vector3d min, max;
+};
+
+struct BoxScene {
+  Box room;                 // the inside of the room: rays end where they leave it
+  std::vector<Box> solids;  // furniture: rays end where they enter one
+
+  // 6 x 5 x 2.5 m, corner at the origin: table at (2.5..3.7, 1.5..2.3), shelf against the
+  // north wall with its overhang at 0.45..0.60 m, a step 0.08 m high near the door.
+  static BoxScene officeRoom();
+  // Distance along unit `dir` from `origin` (inside the room) to the first surface; +inf if none.
+  double castRay(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir) const;
+  // Whether a point lies inside a solid (for ground-truth footprints).
+  bool solidAt(const Eigen::Vector3d& p) const;
+};
+
+// Kinect v1 / Asus Xtion: 640 x 480, 57 x 43 deg, 0.5-4.5 m; depth noise sigma(z) =
+// 0.0012 + 0.0019 (z - 0.4)^2 m (Nguyen, Izadi, Lovell 2012, for the Kinect's axial noise).
+struct DepthCameraSpec {
+  int width = 640, height = 480;
+  double horizontal_fov = 0.9948, vertical_fov = 0.7505;  // rad
+  double min_range = 0.5, max_range = 4.5;                 // of the depth (z in the optical frame), m
+  bool noise = true;
+};
+
+// One organized frame in the camera's optical frame (REP 103: z forward, x right, y down), row by
+// row; NaN where the camera gets no depth (nothing within range).
+std::vector<Eigen::Vector3f> depthFrame(const BoxScene& scene, const Eigen::Isometry3d& optical_in_world,
+                                        const DepthCameraSpec& spec, std::mt19937* rng);
+
+// The optical frame of a camera at `position` looking along `yaw` (rad, about z) and pitched
+// down by `pitch` (rad): the body-to-optical rotation of REP 103 applied.
+Eigen::Isometry3d opticalPose(const Eigen::Vector3d& position, double yaw, double pitch);
+
+}  // namespace sim
+}  // namespace octo_slice_mapper

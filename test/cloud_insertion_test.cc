@@ -1,0 +1,228 @@
+// Depth-camera clouds into the octree (issue 22): the simulated camera, the fast path against a
+// straightforward reference of the same model, and the cloud rules (floor, range, bad points).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <unordered_map>
+
+#include "octo_slice_mapper/mapper.h"
+#include "octo_slice_mapper/scan_inserter.h"
+#include "octo_slice_mapper/sim/depth_camera.h"
+
+using namespace octo_slice_mapper;
+
+namespace {
+
+// A small camera (same optics, fewer pixels) keeps the reference fast.
+sim::DepthCameraSpec smallCamera() {
+  sim::DepthCameraSpec spec;
+  spec.width = 160;
+  spec.height = 120;
+  return spec;
+}
+
+std::vector<Eigen::Vector3f> inMap(const std::vector<Eigen::Vector3f>& optical, const Eigen::Isometry3d& pose) {
+  std::vector<Eigen::Vector3f> out;
+  for (const Eigen::Vector3f& p : optical) {
+    out.push_back(p.allFinite() ? Eigen::Vector3f((pose * p.cast<double>()).cast<float>()) : p);
+  }
+  return out;
+}
+
+struct Frame {
+  Eigen::Isometry3d pose;
+  std::vector<Eigen::Vector3f> points;  // map frame, NaN where no depth
+};
+
+Frame frameOf(const Eigen::Vector3d& at, double yaw, double pitch, const sim::DepthCameraSpec& spec, int seed = 1) {
+  std::mt19937 rng(seed);
+  Frame f;
+  f.pose = sim::opticalPose(at, yaw, pitch);
+  f.points = inMap(sim::depthFrame(sim::BoxScene::officeRoom(), f.pose, spec, &rng), f.pose);
+  return f;
+}
+
+}  // namespace
+
+TEST(DepthCamera, SeesTheWallAtItsDistanceAlongTheOpticalAxis) {
+  sim::DepthCameraSpec spec = smallCamera();
+  spec.noise = false;
+  // 3 m from the east wall (x = 6), level, at mid-height: the centre pixel's depth is 3 m, on z.
+  const Eigen::Isometry3d pose = sim::opticalPose(Eigen::Vector3d(3.0, 2.5, 1.5), 0.0, 0.0);
+  std::mt19937 rng(1);
+  const std::vector<Eigen::Vector3f> frame = sim::depthFrame(sim::BoxScene::officeRoom(), pose, spec, &rng);
+  ASSERT_EQ(frame.size(), 160u * 120u);
+  const Eigen::Vector3f centre = frame[60 * 160 + 80];
+  EXPECT_NEAR(centre.z(), 3.0f, 1e-4f);
+  EXPECT_NEAR((pose * centre.cast<double>()).x(), 6.0, 1e-3);
+  // Right in the image is +x (REP 103), which looking east is -y in the world.
+  const Eigen::Vector3d right = pose * frame[60 * 160 + 159].cast<double>();
+  EXPECT_LT(right.y(), 2.5);
+  // Looking along the 6 m diagonal of the room from a corner, the far corner is beyond 4.5 m: NaN.
+  const Eigen::Isometry3d corner = sim::opticalPose(Eigen::Vector3d(0.1, 0.1, 1.2), std::atan2(5.0, 6.0), 0.0);
+  const std::vector<Eigen::Vector3f> far = sim::depthFrame(sim::BoxScene::officeRoom(), corner, spec, &rng);
+  EXPECT_FALSE(far[60 * 160 + 80].allFinite());
+}
+
+TEST(CloudInsertion, OneRayPerEndVoxelCountsEveryPointAndNeedsFewRays) {
+  const Frame f = frameOf(Eigen::Vector3d(2.0, 1.8, 1.0), 0.0, 0.7, smallCamera());
+  octomap::OcTree tree(0.05);
+  ScanInserter inserter(&tree, InsertOptions());
+  ReadingCounts counts;
+  const std::vector<Beam> beams = inserter.cloudBeams(f.pose.translation(), f.points, &counts);
+  std::size_t finite = 0;
+  for (const Eigen::Vector3f& p : f.points) finite += p.allFinite();
+  EXPECT_EQ(counts[ReadingKind::kHit], finite);
+  EXPECT_EQ(counts[ReadingKind::kNaN], f.points.size() - finite);
+  EXPECT_GT(finite, 10000u);
+  EXPECT_LT(beams.size(), finite / 4) << "one ray per end voxel";
+}
+
+// The fast path (evidence window, layer cache, octree order) against the model's straightforward
+// use: every beam's evidence for every voxel it reaches, summed per voxel over the frame, then
+// OctoMap's updateNode; both trees leaf for leaf, over several frames (clamping included).
+TEST(CloudInsertion, FastPathGivesTheReferenceTreeLeafForLeaf) {
+  const sim::DepthCameraSpec spec = smallCamera();
+  std::vector<Frame> frames;
+  for (int k = 0; k < 3; ++k) {
+    frames.push_back(frameOf(Eigen::Vector3d(2.0 + 0.05 * k, 1.8, 1.0), 0.02 * k, 0.7, spec, k + 1));
+    frames.push_back(frameOf(Eigen::Vector3d(0.3 + 0.05 * k, 0.3, 0.3), 0.7, 0.05, spec, k + 10));
+  }
+  for (const auto& [per_voxel, combining] : {std::pair{true, EvidenceCombining::kOccupiedWins},
+                                             std::pair{false, EvidenceCombining::kOccupiedWins},
+                                             std::pair{true, EvidenceCombining::kSum}}) {
+    MapperOptions options;
+    options.insert.cloud_one_ray_per_voxel = per_voxel;
+    options.insert.cloud_combining = combining;
+    Mapper fast(options);
+    octomap::OcTree reference(options.resolution);
+    reference.setClampingThresMin(options.clamp_min);
+    reference.setClampingThresMax(options.clamp_max);
+    octomap::OcTree scratch(options.resolution);
+    ScanInserter tracer(&scratch, options.insert);
+    for (const Frame& f : frames) {
+      ASSERT_TRUE(fast.insertPoints(f.pose.translation(), f.points).ok());
+      const std::vector<Beam> beams = tracer.cloudBeams(f.pose.translation(), f.points, nullptr);
+      // Per voxel: the sum, or where occupied wins the strongest occupied evidence, else the
+      // strongest free.
+      struct Combined {
+        float sum = 0.0f, most = 0.0f, least = 0.0f;
+      };
+      std::unordered_map<octomap::OcTreeKey, Combined, octomap::OcTreeKey::KeyHash> evidence;
+      tracer.traceEvidence(f.pose.translation(), beams, tracer.model().halfAngleFor(0.0),
+                           [&](const octomap::OcTreeKey& key, float value) {
+                             Combined& c = evidence[key];
+                             c.sum += value;
+                             c.most = std::max(c.most, value);
+                             c.least = std::min(c.least, value);
+                           });
+      for (const auto& kv : evidence) {
+        const Combined& c = kv.second;
+        const float value = combining == EvidenceCombining::kSum ? c.sum : c.most > 0.0f ? c.most : c.least;
+        if (value != 0.0f) reference.updateNode(kv.first, value);
+      }
+    }
+    const octomap::OcTree& tree = fast.tree();
+    ASSERT_GT(reference.getNumLeafNodes(), 1000u);
+    std::size_t compared = 0;
+    for (auto it = reference.begin_leafs(); it != reference.end_leafs(); ++it) {
+      const octomap::OcTreeNode* node = tree.search(it.getKey());
+      ASSERT_NE(node, nullptr) << "missing leaf at " << it.getCoordinate();
+      ASSERT_NEAR(node->getLogOdds(), it->getLogOdds(), 1e-3)
+          << "at " << it.getCoordinate() << " per_voxel " << per_voxel << " combining " << int(combining);
+      ++compared;
+    }
+    EXPECT_EQ(compared, reference.getNumLeafNodes());
+    EXPECT_EQ(tree.getNumLeafNodes(), reference.getNumLeafNodes()) << "the fast path has voxels the reference has not";
+  }
+}
+
+TEST(CloudInsertion, TheFloorClearsButDoesNotMarkAndTheTableTopMarks) {
+  // Looking down at the table from above its centre: the top at 0.72 m is occupied, the floor
+  // beside it (z = 0, below cloud_mark_min_z) is not, and the air above the table is free.
+  Mapper mapper{MapperOptions()};
+  for (int k = 0; k < 3; ++k) {
+    const Frame f = frameOf(Eigen::Vector3d(2.0, 1.9, 1.2), 0.0, 0.6 + 0.05 * k, smallCamera(), k + 1);
+    ASSERT_TRUE(mapper.insertPoints(f.pose.translation(), f.points).ok());
+  }
+  const octomap::OcTree& tree = mapper.tree();
+  const auto occupied = [&](double x, double y, double z) {
+    const octomap::OcTreeNode* n = tree.search(x, y, z);
+    return n && tree.isNodeOccupied(n);
+  };
+  const auto known_free = [&](double x, double y, double z) {
+    const octomap::OcTreeNode* n = tree.search(x, y, z);
+    return n && !tree.isNodeOccupied(n);
+  };
+  int top = 0, floor_marked = 0, floor_seen = 0;
+  for (double x = 2.6; x < 3.6; x += 0.05) {
+    top += occupied(x, 1.9, 0.71);
+    floor_marked += occupied(x, 1.2, 0.01);
+    floor_seen += tree.search(x, 1.2, 0.01) != nullptr;
+  }
+  EXPECT_GT(top, 12) << "of 20 cells along the table top";
+  EXPECT_GT(floor_seen, 0) << "the floor beside the table was not seen at all";
+  EXPECT_EQ(floor_marked, 0);
+  EXPECT_TRUE(known_free(2.6, 1.9, 1.0)) << "the air between the camera and the table";
+}
+
+TEST(CloudInsertion, CloudMaxRangeClearsUpToItAndMarksNothingBeyond) {
+  MapperOptions options;
+  options.insert.cloud_max_range = 2.0;
+  Mapper mapper(options);
+  // One point on a wall 3 m ahead, at a marking height.
+  const Eigen::Vector3d origin(0.0, 0.0, 0.5);
+  ASSERT_TRUE(mapper.insertPoints(origin, {Eigen::Vector3f(3.0f, 0.0f, 0.5f)}).ok());
+  const octomap::OcTree& tree = mapper.tree();
+  const octomap::OcTreeNode* at_wall = tree.search(3.0, 0.0, 0.5);
+  EXPECT_TRUE(at_wall == nullptr || !tree.isNodeOccupied(at_wall)) << "marked beyond cloud_max_range";
+  const octomap::OcTreeNode* near = tree.search(1.5, 0.0, 0.5);
+  ASSERT_NE(near, nullptr);
+  EXPECT_FALSE(tree.isNodeOccupied(near));
+  EXPECT_EQ(tree.search(2.6, 0.0, 0.5), nullptr) << "cleared past cloud_max_range";
+}
+
+TEST(CloudInsertion, NonFinitePointsAreCountedPerReasonAndLoseNothing) {
+  Mapper mapper{MapperOptions()};
+  const Frame f = frameOf(Eigen::Vector3d(2.0, 1.8, 1.0), 0.0, 0.7, smallCamera());
+  ASSERT_TRUE(mapper.insertPoints(f.pose.translation(), f.points).ok());
+  const std::size_t leaves = mapper.tree().getNumLeafNodes();
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  std::vector<Eigen::Vector3f> bad(1000000, Eigen::Vector3f(nan, nan, nan));
+  bad[5] = Eigen::Vector3f(inf, 0.0f, 0.0f);
+  bad[6] = Eigen::Vector3f(1e30f, 1e30f, 1e30f);  // huge: outside the octree
+  const InsertResult result = mapper.insertPoints(f.pose.translation(), bad);
+  ASSERT_TRUE(result.ok());
+  EXPECT_EQ(result.readings[ReadingKind::kNaN], 999998u);
+  EXPECT_EQ(result.readings[ReadingKind::kInfinite], 1u);
+  EXPECT_EQ(mapper.tree().getNumLeafNodes(), leaves) << "bad points changed the map";
+}
+
+// Why a cloud's rays combine with occupied winning: a TurtleBot's camera (0.30 m up) sees the
+// table top (0.69-0.72 m) from below, at a grazing angle; summed, the free evidence of the rays
+// ending farther along the underside erases the voxels where the nearer ones end.
+TEST(CloudInsertion, OccupiedWinsKeepsATableTopSeenFromBelowThatSummingErases) {
+  sim::DepthCameraSpec spec;
+  spec.width = 320, spec.height = 240;
+  int occupied[2] = {0, 0}, cells = 0;
+  for (int k = 0; k < 2; ++k) {
+    MapperOptions options;
+    options.insert.cloud_combining = k == 0 ? EvidenceCombining::kOccupiedWins : EvidenceCombining::kSum;
+    options.slice.min_z = 0.05, options.slice.max_z = 0.80;
+    Mapper mapper(options);
+    for (int f = 0; f < 3; ++f) {
+      const Frame frame = frameOf(Eigen::Vector3d(0.9, 1.9, 0.30), 0.05 * f, 0.1, spec, f + 1);
+      ASSERT_TRUE(mapper.insertPoints(frame.pose.translation(), frame.points).ok());
+    }
+    cells = 0;
+    for (double x = 2.55; x < 3.5; x += 0.1) {
+      for (double y = 1.7; y < 2.15; y += 0.1) {
+        ++cells;
+        occupied[k] += mapper.slice().valueAt(x, y) >= 65;
+      }
+    }
+  }
+  EXPECT_GT(occupied[0], cells * 8 / 10) << "occupied wins: " << occupied[0] << " of " << cells;
+  EXPECT_LT(occupied[1], cells * 3 / 10) << "summed: " << occupied[1] << " of " << cells;
+}

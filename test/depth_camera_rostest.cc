@@ -1,0 +1,169 @@
+// Issue 22 through a real roscore: a TurtleBot's depth camera (simulated Kinect, organized clouds
+// with NaN where it sees nothing) into cloud_in. With the navigation band the table top (0.72 m)
+// and the shelf's overhang (0.45-0.60 m) are occupied in /map, where the lidar's band, which the
+// lidar sees through, has free floor or nothing; the floor itself is never occupied.
+#include <diagnostic_msgs/DiagnosticArray.h>
+#include <geometry_msgs/TransformStamped.h>
+#include <gtest/gtest.h>
+#include <nav_msgs/GetMap.h>
+#include <nav_msgs/OccupancyGrid.h>
+#include <ros/ros.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <sensor_msgs/point_cloud2_iterator.h>
+#include <tf2_eigen/tf2_eigen.h>
+#include <tf2_msgs/TFMessage.h>
+#include <tf2_ros/transform_broadcaster.h>
+
+#include <boost/make_shared.hpp>
+#include <cmath>
+#include <functional>
+#include <map>
+#include <string>
+
+#include "octo_slice_mapper/sim/depth_camera.h"
+
+namespace osm = octo_slice_mapper;
+
+namespace {
+
+bool waitFor(const std::function<bool()>& condition, double seconds) {
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(seconds);
+  while (ros::ok() && ros::WallTime::now() < deadline) {
+    ros::spinOnce();
+    if (condition()) return true;
+    ros::WallDuration(0.02).sleep();
+  }
+  return false;
+}
+
+int cellOf(const nav_msgs::OccupancyGrid::ConstPtr& grid, double x, double y) {
+  if (!grid) return -2;
+  const auto& info = grid->info;
+  const int i = static_cast<int>(std::floor((x - info.origin.position.x) / info.resolution));
+  const int j = static_cast<int>(std::floor((y - info.origin.position.y) / info.resolution));
+  if (i < 0 || j < 0 || i >= int(info.width) || j >= int(info.height)) return -1;
+  return grid->data[std::size_t(j) * info.width + i];
+}
+
+sensor_msgs::PointCloud2 organized(const std::vector<Eigen::Vector3f>& points, int width, int height) {
+  sensor_msgs::PointCloud2 msg;
+  msg.header.frame_id = "camera_depth_optical_frame";
+  sensor_msgs::PointCloud2Modifier modifier(msg);
+  modifier.setPointCloud2FieldsByString(1, "xyz");
+  modifier.resize(std::size_t(width) * height);
+  msg.width = width;
+  msg.height = height;
+  msg.row_step = msg.point_step * width;
+  msg.is_dense = false;
+  sensor_msgs::PointCloud2Iterator<float> x(msg, "x"), y(msg, "y"), z(msg, "z");
+  for (const Eigen::Vector3f& p : points) {
+    *x = p.x(), *y = p.y(), *z = p.z();
+    ++x, ++y, ++z;
+  }
+  return msg;
+}
+
+}  // namespace
+
+TEST(DepthCamera, TheNavigationBandShowsTheTableTopAndTheOverhangTheLidarBandDoesNot) {
+  ros::NodeHandle nh;
+  nav_msgs::OccupancyGrid::ConstPtr nav, lidar;
+  std::map<std::string, double> diagnostics;
+  ros::Subscriber diag_sub = nh.subscribe<diagnostic_msgs::DiagnosticArray>("/diagnostics", 20, [&](const auto& msg) {
+    for (const auto& status : msg->status) {
+      if (status.name.rfind("/nav_mapper:", 0) != 0) continue;
+      for (const auto& kv : status.values) diagnostics[kv.key] = std::atof(kv.value.c_str());
+    }
+  });
+  ros::Publisher cloud_pub = nh.advertise<sensor_msgs::PointCloud2>("cloud_in", 10);
+  ASSERT_TRUE(waitFor([&] { return cloud_pub.getNumSubscribers() >= 2; }, 20.0)) << "the mappers did not subscribe";
+
+  // The camera on the TurtleBot: 0.10 m forward of the base, 0.30 m up (here, with the base
+  // moving, the whole chain is one transform odom -> optical frame per frame).
+  tf2_ros::TransformBroadcaster tf;
+  osm::sim::DepthCameraSpec spec;
+  spec.width = 320, spec.height = 240;  // QVGA, as the Kinect also streams
+  const osm::sim::BoxScene room = osm::sim::BoxScene::officeRoom();
+  std::mt19937 rng(4);
+  struct View {
+    Eigen::Vector3d base;
+    double yaw, pitch;
+  };
+  // Facing the table from the west, then the shelf from the south.
+  // Pitched down 0.1 rad, the camera (0.30 m up) sees the underside of the table top from 1.4 m on.
+  const std::vector<View> views = {{{0.8, 1.9, 0.0}, 0.0, 0.1}, {{0.9, 1.7, 0.0}, 0.1, 0.1},
+                                   {{1.8, 2.8, 0.0}, 1.5708, 0.1}, {{1.6, 2.9, 0.0}, 1.45, 0.1}};
+  // tf first, until both mappers' listeners have it (a cloud before that would wait for it and
+  // might time out).
+  ros::Publisher tf_probe = nh.advertise<tf2_msgs::TFMessage>("/tf", 10);
+  ASSERT_TRUE(waitFor([&] { return tf_probe.getNumSubscribers() >= 2; }, 20.0)) << "the mappers do not listen to /tf";
+  int sent = 0;
+  for (int round = 0; round < 3; ++round) {
+    for (const View& v : views) {
+      const Eigen::Vector3d camera = v.base + Eigen::Vector3d(0.10 * std::cos(v.yaw), 0.10 * std::sin(v.yaw), 0.30);
+      const Eigen::Isometry3d pose = osm::sim::opticalPose(camera, v.yaw, v.pitch);
+      const ros::Time stamp = ros::Time::now();
+      geometry_msgs::TransformStamped t = tf2::eigenToTransform(pose);
+      t.header.frame_id = "odom";
+      t.child_frame_id = "camera_depth_optical_frame";
+      t.header.stamp = stamp;
+      tf.sendTransform(t);
+      sensor_msgs::PointCloud2 cloud = organized(osm::sim::depthFrame(room, pose, spec, &rng), spec.width, spec.height);
+      cloud.header.stamp = stamp;
+      ros::WallDuration(0.05).sleep();
+      t.header.stamp = stamp + ros::Duration(0.05);  // tf past the cloud's stamp: no waiting
+      tf.sendTransform(t);
+      cloud_pub.publish(cloud);
+      ++sent;
+      ros::WallDuration(0.1).sleep();
+    }
+  }
+  ASSERT_TRUE(waitFor([&] { return diagnostics["clouds_inserted"] >= sent; }, 30.0))
+      << "clouds inserted " << diagnostics["clouds_inserted"] << " of " << sent;
+  // The slices as they are now (dynamic_map answers with the current one).
+  for (auto [service, grid] : {std::pair<const char*, nav_msgs::OccupancyGrid::ConstPtr*>{"nav_dynamic_map", &nav},
+                               {"lidar_band_dynamic_map", &lidar}}) {
+    ASSERT_TRUE(ros::service::waitForService(service, 10000)) << service;
+    nav_msgs::GetMap get;
+    ASSERT_TRUE(ros::service::call(service, get)) << service;
+    *grid = boost::make_shared<nav_msgs::OccupancyGrid>(get.response.map);
+  }
+
+  // The table top, between its legs (x 2.6-3.6, y 1.6-2.2): the lidar's band (0.16-0.36 m) sees
+  // under it; the navigation band (0.05-0.80 m) has it occupied.
+  int top_nav = 0, top_lidar = 0, cells = 0;
+  for (double x = 2.75; x < 3.5; x += 0.1) {
+    for (double y = 1.7; y < 2.1; y += 0.1) {
+      ++cells;
+      top_nav += cellOf(nav, x, y) >= 65;
+      top_lidar += cellOf(lidar, x, y) >= 65;
+    }
+  }
+  EXPECT_GT(top_nav, cells * 7 / 10) << top_nav << " of " << cells << " table-top cells occupied (navigation band)";
+  EXPECT_LT(top_lidar, cells / 10) << top_lidar << " of " << cells << " occupied in the lidar's band";
+  // The shelf's overhang (y 4.35-4.7, at 0.45-0.60 m) in front of the cabinet (y >= 4.7).
+  int over_nav = 0, over_lidar = 0, over = 0;
+  for (double x = 1.2; x < 2.5; x += 0.1) {
+    ++over;
+    over_nav += cellOf(nav, x, 4.5) >= 65;
+    over_lidar += cellOf(lidar, x, 4.5) >= 65;
+  }
+  EXPECT_GT(over_nav, over * 7 / 10) << over_nav << " of " << over << " overhang cells occupied";
+  EXPECT_LT(over_lidar, over / 10) << over_lidar << " of " << over << " occupied in the lidar's band";
+  // The floor between the robot and the table: seen, and free (it only clears).
+  int floor_free = 0, floor = 0;
+  for (double x = 1.5; x < 2.4; x += 0.1) {
+    ++floor;
+    const int v = cellOf(nav, x, 1.9);
+    floor_free += v >= 0 && v <= 25;
+  }
+  EXPECT_GT(floor_free, floor * 7 / 10) << floor_free << " of " << floor << " floor cells free";
+  EXPECT_GT(diagnostics["clouds_received"], 0.0);
+}
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "depth_camera_rostest");
+  ros::NodeHandle nh;
+  return RUN_ALL_TESTS();
+}

@@ -1,0 +1,122 @@
+#!/usr/bin/env python3
+"""A real robot's recording through replay.launch (issue 21): nothing lost, nothing misread.
+
+simulate_session --real-robot writes the office tour as a real TurtleBot records it: a REP 117
+driver (+inf = no return, -inf = too close, NaN), a lidar mount yawed 20 deg and 3 cm to the side,
+odometry from drifting dead reckoning with ~1 deg of pitch and roll, the first second of scans
+before any tf, and four scans recorded after the one that follows them. The bag goes through
+replay.launch (roscore, rosbag play with simulated time, mapper_node with its defaults) and the
+session is checked:
+- every scan with a transform is inserted; only the ones before the first tf are skipped (as
+  no_transform), and no "time jump back" is seen in them or in the out-of-order ones;
+- every +inf is read as a no-return (none counted invalid), every -inf and NaN counted;
+- the saved map is octo_slice_map's from the same bag byte for byte (the node's tf, stamps and
+  arrival order lose and add nothing), and it matches the simulator's ground truth (the drift of
+  the odometry allowed for: within 3 cells).
+
+Usage: real_robot_replay_test.py RESULT_XML BIN_DIR  (JUnit, as the other tests write)."""
+import json
+import os
+import re
+import shutil
+import socket
+import subprocess
+import sys
+import tempfile
+
+from junit_cases import write_junit
+
+RATE = "20"  # bag time per wall second
+COMPARED = [".bt", ".ot", ".pgm"]
+# Occupied cells against the truth, within 3 cells (0.15 m): the dead reckoning turns the map by
+# about 2 deg over the tour and thickens walls it sees twice, so the map cannot match the truth
+# cell for cell (measured: precision 0.63, recall 0.87; at 1 cell 0.41 / 0.73). A mount yaw or tf
+# chain read wrongly smears every wall and drops both far lower.
+TOLERANCE, MIN_PRECISION, MIN_RECALL = "3", 0.55, 0.80
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def run(cmd, log, env=None):
+    with open(log, "w") as out:
+        try:
+            return subprocess.run(cmd, stdout=out, stderr=subprocess.STDOUT, timeout=300, env=env).returncode
+        except subprocess.TimeoutExpired:
+            out.write(f"\n(killed after 300 s: {' '.join(cmd)})\n")
+            return "a timeout"
+
+
+def counters(summary):
+    return {k: int(v) for k, v in re.findall(r"(\w+)=(\d+)(?:\s|$)", summary)}
+
+
+def cases(bin_dir, work):
+    bag, truth = os.path.join(work, "real.bag"), os.path.join(work, "truth")
+    sim_log = os.path.join(work, "simulate.txt")
+    if run([os.path.join(bin_dir, "simulate_session"), "--real-robot", "--bag", bag, "--truth", truth], sim_log):
+        yield "simulate", False, f"simulate_session failed (see {sim_log})"
+        return
+    wrote = json.loads([l for l in open(sim_log) if l.startswith("{")][0])
+    offline = os.path.join(work, "offline")
+    offline_log = os.path.join(work, "offline.txt")
+    if run([os.path.join(bin_dir, "octo_slice_map"), "--bag", bag, "--out", offline], offline_log):
+        yield "offline", False, f"octo_slice_map failed (see {offline_log})"
+        return
+    params = os.path.join(work, "params.yaml")
+    with open(params, "w") as f:
+        f.write(f"maps_dir: {work}\n")
+    launch_log = os.path.join(work, "roslaunch.txt")
+    port = free_port()
+    env = dict(os.environ, ROS_MASTER_URI=f"http://localhost:{port}")
+    devel_env = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(bin_dir))), "env.sh")
+    code = run([devel_env, "roslaunch", "-p", str(port), "octo_slice_mapper", "replay.launch", "bag:=" + bag,
+                "save:=ros", "rate:=" + RATE, "params_file:=" + params], launch_log, env)
+    text = open(launch_log).read()
+    summary = [l for l in text.splitlines() if "session summary" in l]
+    if code or not summary:
+        yield "replay", False, f"roslaunch ended with {code!r} (summary written: {bool(summary)}; see {launch_log})"
+        return
+    c = counters(summary[0])
+    expected = wrote["scans"] - wrote["scans_before_tf"]
+    yield ("every scan with a transform inserted", c.get("scans_inserted") == expected,
+           f"inserted {c.get('scans_inserted')} of {expected}: {summary[0].strip()}")
+    yield ("only the scans before the first tf skipped, as no_transform",
+           c.get("scans_skipped") == wrote["scans_before_tf"] == c.get("skipped_no_transform"),
+           f"{wrote['scans_before_tf']} scans came before tf: {summary[0].strip()}")
+    yield ("no time jump seen in late or early scans", c.get("time_jumps_back") == 0, summary[0].strip())
+    # The README: +inf is a no-return, -inf "too close" is counted as `inf` (no update), NaN as `nan`.
+    yield ("+inf read as no-return, none invalid",
+           c.get("no_return") == wrote["plus_inf"] and wrote["plus_inf"] > 1000,
+           f"the bag's scans after tf hold {wrote['plus_inf']} +inf: {summary[0].strip()}")
+    yield ("-inf and NaN counted", c.get("inf") == wrote["minus_inf"] and c.get("nan") == wrote["nan"],
+           f"{wrote['minus_inf']} -inf, {wrote['nan']} NaN: {summary[0].strip()}")
+    for suffix in COMPARED:
+        a, b = offline + suffix, os.path.join(work, "ros" + suffix)
+        same = os.path.exists(a) and os.path.exists(b) and open(a, "rb").read() == open(b, "rb").read()
+        yield f"map{suffix} as octo_slice_map's", same, f"{b} differs from {a}"
+    score_log = os.path.join(work, "compare.txt")
+    run([os.path.join(bin_dir, "compare_maps"), os.path.join(work, "ros.yaml"), truth + ".yaml", "--tolerance",
+         TOLERANCE], score_log)
+    lines = [l for l in open(score_log) if l.startswith("{")]
+    score = json.loads(lines[0]) if lines else {}
+    yield ("map matches the ground truth", score.get("precision", 0) >= MIN_PRECISION and
+           score.get("recall", 0) >= MIN_RECALL, f"{score} (need {MIN_PRECISION} / {MIN_RECALL}; see {score_log})")
+
+
+def main():
+    result_xml, bin_dir = sys.argv[1], sys.argv[2]
+    work = tempfile.mkdtemp(prefix="osm_real_robot_")
+    failures = write_junit("real_robot_replay", cases(bin_dir, work), result_xml)
+    if failures:
+        print("kept for a look:", work)
+    else:
+        shutil.rmtree(work)
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
