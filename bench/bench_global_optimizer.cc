@@ -87,14 +87,14 @@ void timeOnlinePass(const std::vector<osm::LogScan>& log, const osm::Mapper& all
   osm::Mapper earlier;
   for (std::size_t i = 0; i + kNewScans < log.size(); ++i) earlier.insert(log[i].scan);
   const osm::MapSnapshot before = earlier.optimizationInput(), now = all.optimizationInput();
-  std::printf("  %-28s %8s %8s %8s %9s\n", "online pass, last 15 scans new", "seconds", "index s", "sweeps s",
-              "revisits");
+  std::printf("  %-28s %8s %8s %8s %9s %9s\n", "online pass, last 15 scans new", "seconds", "index s", "sweeps s",
+              "revisits", "extended");
   std::vector<double> serial;
   for (int threads : {1, 0}) {
     osm::GlobalOptimizerOptions options = all.options().optimizer;
     options.threads = threads;
     std::vector<double> seconds, index, sweeps;
-    bool revisited = true;
+    bool revisited = true, extended = true;
     for (int r = 0; r < repeats; ++r) {
       osm::OnlineOptimizer pass(options, all.options().resolution);
       const auto wait = [&pass] {
@@ -110,9 +110,10 @@ void timeOnlinePass(const std::vector<osm::LogScan>& log, const osm::Mapper& all
       index.push_back(result.map.report.build_seconds);
       sweeps.push_back(result.map.report.optimize_seconds);
       revisited = revisited && result.scans_revisited_from > 0;
+      extended = extended && result.index_extended;
     }
-    std::printf("  %-28s %8.2f %8.2f %8.2f %9s\n", threads == 1 ? "one thread" : "every core", median(seconds),
-                median(index), median(sweeps), revisited ? "yes" : "NO");
+    std::printf("  %-28s %8.2f %8.2f %8.2f %9s %9s\n", threads == 1 ? "one thread" : "every core", median(seconds),
+                median(index), median(sweeps), revisited ? "yes" : "NO", extended ? "yes" : "no");
     if (threads == 1) serial = seconds;
     else std::printf("  every core vs one thread: %.2fx faster (medians)\n", median(serial) / median(seconds));
   }

@@ -118,6 +118,50 @@ TEST(GlobalOptimizer, AnyNumberOfThreadsGivesTheSameMapAndLikelihood) {
   }
 }
 
+// The background pass extends its last index by the scans kept since instead of building it anew:
+// the same index, and so the same result, as a build of all the scans; refused (nothing changed)
+// when the new beams reach beyond the traced extent, which would lay the grid out otherwise.
+TEST(GlobalOptimizer, ExtendingTheIndexGivesWhatABuildOfAllGives) {
+  const sim::SimulatedSession session(sim::FloorPlan::office(), sim::SessionSpec::officeTour());
+  std::vector<Scan> all = session.allScans();
+  all.resize(400);
+  const std::vector<StoredScan> scans = storeAll(all);
+  ASSERT_GT(scans.size(), 300u);
+  GlobalOptimizer whole(GlobalOptimizerOptions{}, 0.05), grown(GlobalOptimizerOptions{}, 0.05);
+  whole.build(scans);
+  // The robot drives on: the first scans' extent grows. Find a split whose later scans stay in it.
+  std::size_t split = 0;
+  for (std::size_t first = scans.size() - 5; first > scans.size() / 2; first -= 5) {
+    GlobalOptimizer probe(GlobalOptimizerOptions{}, 0.05);
+    probe.build(std::vector<StoredScan>(scans.begin(), scans.begin() + first));
+    if (probe.extend(scans, first)) {
+      split = first;
+      break;
+    }
+  }
+  ASSERT_GT(split, 0u) << "no split whose new scans stay within the earlier ones' extent";
+  grown.build(std::vector<StoredScan>(scans.begin(), scans.begin() + split));
+  ASSERT_TRUE(grown.extend(scans, split));
+  grown.startEmpty();  // the new beams' records are set by a start
+  ASSERT_EQ(grown.cellCount(), whole.cellCount());
+  ASSERT_EQ(grown.beamCount(), whole.beamCount());
+  for (std::size_t c = 0; c < whole.cellCount(); ++c) ASSERT_EQ(grown.observed(c), whole.observed(c)) << c;
+  const OptimizeReport a = whole.optimize(), b = grown.optimize();
+  EXPECT_EQ(a.ray_cells, b.ray_cells);
+  EXPECT_EQ(a.flips_per_sweep, b.flips_per_sweep);
+  EXPECT_EQ(a.final_log_likelihood, b.final_log_likelihood);
+  EXPECT_EQ(whole.result().cells, grown.result().cells);
+  // The first scans alone do not hold the later ones: refused, and the index is left as it was.
+  GlobalOptimizer early(GlobalOptimizerOptions{}, 0.05);
+  const std::vector<StoredScan> first_few(scans.begin(), scans.begin() + 20);
+  early.build(first_few);
+  const std::size_t beams = early.beamCount();
+  EXPECT_FALSE(early.extend(scans, 20));
+  EXPECT_EQ(early.beamCount(), beams);
+  EXPECT_EQ(early.scanCount(), 20u);
+  EXPECT_FALSE(early.extend(scans, 19)) << "not the scans it was built from";
+}
+
 TEST(GlobalOptimizer, OpensTheDoorSonarConesPass) {
   // Sonar-like beams (20 deg cones that echo from their nearest obstacle) pass an open door. An
   // inverse model that marks the whole cross-section at the echo's range occupied spreads the

@@ -58,6 +58,14 @@ class GlobalOptimizer {
   // Indexes every beam of `scans`: which cells it crosses (a cell -> beams index, built in two
   // passes so it needs no per-pair distances). Cells no beam crosses stay unknown.
   void build(const std::vector<StoredScan>& scans, const ProgressFn& progress = {});
+  // After build(scans[0, first_new)) (or extend()), indexes the beams of scans[first_new, end) as
+  // well, without walking the others again: then the index, the grid and the beams are exactly
+  // what build(scans) gives (so are the results from any start). Only when the new beams stay
+  // within the traced extent so far and the longest range is the same, for thin beams; otherwise
+  // false, nothing changed, and build() is the way. The cells' states stay as they were (call
+  // startEmpty() or startFrom()).
+  bool extend(const std::vector<StoredScan>& scans, std::size_t first_new);
+  std::size_t scanCount() const { return scan_first_beam_.size() - 1; }
 
   // Initial states: all observed cells free (the lab's start), or occupied where `map` (e.g. the
   // incremental slice) is above 50 % (warm start).
@@ -110,6 +118,8 @@ class GlobalOptimizer {
     double log_likelihood;    // of the beam with its current first obstacle
   };
   void setFirst(Beam* beam, std::int32_t cell, float distance) const;
+  void addBeams(const std::vector<StoredScan>& scans, std::size_t first, std::size_t end, double bounds[4]);
+  double bounds_[4] = {0, 0, 0, 0};  // min x, min y, max x, max y of the traced segments
   template <typename Visit>
   void walk(const Beam& beam, Visit&& visit) const;
   void flip(std::size_t cell, double delta);

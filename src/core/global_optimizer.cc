@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 
 #include "octo_slice_mapper/parallel_chunks.h"
 
@@ -107,13 +108,16 @@ void GlobalOptimizer::setFirst(Beam* beam, std::int32_t cell, float distance) co
   beam->log_likelihood = beamLogLikelihood(*beam, cell >= 0, beam->first_dist);
 }
 
-void GlobalOptimizer::build(const std::vector<StoredScan>& scans, const ProgressFn& progress) {
-  beams_.clear();
-  // Beams in the x-y plane; the grid covers every traced segment.
-  double min_x = 1e300, min_y = 1e300, max_x = -1e300, max_y = -1e300;
-  z_max_ = 1e-3;
-  scan_first_beam_.assign(1, 0);
-  for (const StoredScan& s : scans) {
+// The beams of scans[first, end) appended to beams_ (and scan_first_beam_), widening `bounds`
+// (min x, min y, max x, max y of every traced segment) and z_max_.
+void GlobalOptimizer::addBeams(const std::vector<StoredScan>& scans, std::size_t first, std::size_t end,
+                               double bounds[4]) {
+  double& min_x = bounds[0];
+  double& min_y = bounds[1];
+  double& max_x = bounds[2];
+  double& max_y = bounds[3];
+  for (std::size_t si = first; si < end; ++si) {
+    const StoredScan& s = scans[si];
     const double range_max = options_.max_range > 0.0 ? std::min<double>(options_.max_range, s.range_max) : s.range_max;
     z_max_ = std::max(z_max_, range_max);
     const Eigen::Matrix3f rotation = s.rotation.toRotationMatrix();
@@ -154,6 +158,17 @@ void GlobalOptimizer::build(const std::vector<StoredScan>& scans, const Progress
     }
     scan_first_beam_.push_back(beams_.size());
   }
+}
+
+void GlobalOptimizer::build(const std::vector<StoredScan>& scans, const ProgressFn& progress) {
+  beams_.clear();
+  // Beams in the x-y plane; the grid covers every traced segment.
+  bounds_[0] = bounds_[1] = 1e300;
+  bounds_[2] = bounds_[3] = -1e300;
+  z_max_ = 1e-3;
+  scan_first_beam_.assign(1, 0);
+  addBeams(scans, 0, scans.size(), bounds_);
+  const double min_x = bounds_[0], min_y = bounds_[1], max_x = bounds_[2], max_y = bounds_[3];
   model_ = ForwardSensorModel(options_.model, resolution_, z_max_);
   cell_beams_begin_.assign(1, 0);
   cell_beams_.clear();
@@ -209,6 +224,8 @@ void GlobalOptimizer::build(const std::vector<StoredScan>& scans, const Progress
     }
     cell_beams_begin_[c + 1] = at;
   }
+  // Room for the beams of later scans (extend()): 1/16 more.
+  cell_beams_.reserve(cell_beams_begin_.back() + cell_beams_begin_.back() / 16);
   cell_beams_.resize(cell_beams_begin_.back());
   forEachChunk(beams_.size(), workers, [&](std::size_t begin, std::size_t end, unsigned w) {
     std::vector<std::uint32_t>& fill = counts[w];
@@ -227,6 +244,57 @@ void GlobalOptimizer::build(const std::vector<StoredScan>& scans, const Progress
   occupied_.assign(cells, 0);
   beam_changed_.assign(beams_.size(), 0);
   startEmpty();
+}
+
+bool GlobalOptimizer::extend(const std::vector<StoredScan>& scans, std::size_t first_new) {
+  if (beams_.empty() || first_new != scanCount() || first_new > scans.size() || options_.beam_opening_angle > 0.0) {
+    return false;
+  }
+  const std::size_t old_beams = beams_.size();
+  const double old_z_max = z_max_;
+  double bounds[4] = {bounds_[0], bounds_[1], bounds_[2], bounds_[3]};
+  addBeams(scans, first_new, scans.size(), bounds);
+  if (z_max_ != old_z_max || bounds[0] < bounds_[0] || bounds[1] < bounds_[1] || bounds[2] > bounds_[2] ||
+      bounds[3] > bounds_[3]) {
+    // A build of all would lay the grid out (or scale the model) otherwise: undo.
+    beams_.resize(old_beams);
+    scan_first_beam_.resize(first_new + 1);
+    z_max_ = old_z_max;
+    return false;
+  }
+  const std::size_t cells = cellCount();
+  // The new beams' cells per cell, in beam order, as build()'s fill pass lists them.
+  std::vector<std::uint32_t> added(cells, 0);
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;  // (cell, beam)
+  for (std::size_t b = old_beams; b < beams_.size(); ++b) {
+    std::size_t last = npos;
+    walk(beams_[b], [&](std::size_t c) {
+      if (c != last) {
+        ++added[c];
+        pairs.emplace_back(static_cast<std::uint32_t>(c), static_cast<std::uint32_t>(b));
+      }
+      last = c;
+      return true;
+    });
+  }
+  // In place: each cell's list moves up by the new pairs of the cells before it (from the last
+  // cell down, so nothing is overwritten before it moved), and the new beams follow its old ones.
+  std::vector<std::uint64_t> begin(cells + 1, 0);
+  for (std::size_t c = 0; c < cells; ++c) begin[c + 1] = cell_beams_begin_[c + 1] + (begin[c] - cell_beams_begin_[c]) + added[c];
+  // Growing past the capacity would copy the whole index into fresh memory (on this machine
+  // slower than a new build): build() leaves room, and so does a growth here.
+  if (begin[cells] > cell_beams_.capacity()) cell_beams_.reserve(begin[cells] + begin[cells] / 16);
+  cell_beams_.resize(begin[cells]);
+  for (std::size_t c = cells; c-- > 0;) {
+    const std::uint64_t from = cell_beams_begin_[c], n = cell_beams_begin_[c + 1] - from;
+    if (n > 0 && begin[c] != from) std::memmove(&cell_beams_[begin[c]], &cell_beams_[from], n * sizeof(std::uint32_t));
+  }
+  std::vector<std::uint64_t> fill(cells);
+  for (std::size_t c = 0; c < cells; ++c) fill[c] = begin[c] + (cell_beams_begin_[c + 1] - cell_beams_begin_[c]);
+  for (const auto& [c, b] : pairs) cell_beams_[fill[c]++] = b;
+  cell_beams_begin_ = std::move(begin);
+  beam_changed_.assign(beams_.size(), 0);
+  return true;
 }
 
 void GlobalOptimizer::startEmpty() {

@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstring>
 
 #ifdef __linux__
 #include <sys/resource.h>
@@ -14,10 +15,13 @@ namespace {
 
 constexpr int kPassNice = 10;
 
+// Byte for byte: a scan holding a NaN reading (REP 117's "invalid", common on real lidars) never
+// compares equal to itself with ==, and every pass then took the full first sweep.
 bool sameScan(const StoredScan& a, const StoredScan& b) {
   return a.origin == b.origin && a.rotation.coeffs() == b.rotation.coeffs() && a.angle_min == b.angle_min &&
          a.angle_increment == b.angle_increment && a.range_min == b.range_min && a.range_max == b.range_max &&
-         a.ranges == b.ranges;
+         a.ranges.size() == b.ranges.size() &&
+         std::memcmp(a.ranges.data(), b.ranges.data(), a.ranges.size() * sizeof(float)) == 0;
 }
 
 }  // namespace
@@ -107,11 +111,26 @@ void OnlineOptimizer::run() {
 
     const auto t0 = std::chrono::steady_clock::now();
     const GridImage start = warmStartFrom(last, input.incremental);
-    const RevisitFrom revisit{revisit_from, &last};
     OnlineOptimizerResult result;
     const GlobalOptimizerOptions& options = input.options ? *input.options : options_;
-    result.map = optimizeScans(input.scans, options, resolution_, &start, {}, revisit_from > 0 ? &revisit : nullptr);
-    result.map.grid = inFrameOf(result.map.grid, input.incremental);
+    // As optimizeScans() does it, but from the last pass's index extended by the new scans where
+    // it can be (the same index as a build of all).
+    result.index_extended = revisit_from > 0 && optimizer_ && optimizer_->extend(input.scans, revisit_from);
+    if (!result.index_extended) {
+      optimizer_ = std::make_unique<GlobalOptimizer>(options, resolution_);
+      optimizer_->build(input.scans);
+    }
+    optimizer_->startFrom(start);
+    result.map.report.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const double build_seconds = result.map.report.build_seconds;
+    if (revisit_from > 0) {
+      const std::vector<std::uint8_t> look = optimizer_->cellsToRevisit(revisit_from, last);
+      result.map.report = optimizer_->optimize({}, &look);
+    } else {
+      result.map.report = optimizer_->optimize();
+    }
+    result.map.report.build_seconds = build_seconds;
+    result.map.grid = inFrameOf(cropToKnown(optimizer_->result()), input.incremental);
     result.scans_revisited_from = revisit_from;
     result.version = input.version;
     result.newest_stamp = input.newest_stamp;
