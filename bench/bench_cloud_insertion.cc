@@ -17,7 +17,6 @@
 // the per-point one, and a JSON line. --ours-only: only ours, 20 times (for profiling).
 #include <octomap/OcTree.h>
 #include <sensor_msgs/PointCloud2.h>
-#include <sensor_msgs/point_cloud2_iterator.h>
 
 #include <chrono>
 #include <cmath>
@@ -44,24 +43,6 @@ struct Frame {
   std::size_t valid = 0;
 };
 
-sensor_msgs::PointCloud2 toMessage(const std::vector<Eigen::Vector3f>& points, int width, int height) {
-  sensor_msgs::PointCloud2 msg;
-  msg.header.frame_id = "camera_depth_optical_frame";
-  sensor_msgs::PointCloud2Modifier modifier(msg);
-  modifier.setPointCloud2FieldsByString(1, "xyz");
-  modifier.resize(std::size_t(width) * height);
-  msg.width = width;
-  msg.height = height;
-  msg.row_step = msg.point_step * width;
-  msg.is_dense = false;
-  sensor_msgs::PointCloud2Iterator<float> x(msg, "x"), y(msg, "y"), z(msg, "z");
-  for (const Eigen::Vector3f& p : points) {
-    *x = p.x(), *y = p.y(), *z = p.z();
-    ++x, ++y, ++z;
-  }
-  return msg;
-}
-
 std::vector<Frame> framesOf(const osm::sim::BoxScene& scene, const Eigen::Vector3d& start, double yaw, double pitch,
                             int count) {
   osm::sim::DepthCameraSpec spec;
@@ -71,7 +52,7 @@ std::vector<Frame> framesOf(const osm::sim::BoxScene& scene, const Eigen::Vector
     Frame f;
     f.optical_in_map = osm::sim::opticalPose(start + Eigen::Vector3d(0.02 * k, 0.01 * k, 0.0), yaw + 0.0087 * k, pitch);
     const std::vector<Eigen::Vector3f> points = osm::sim::depthFrame(scene, f.optical_in_map, spec, &rng);
-    f.msg = toMessage(points, spec.width, spec.height);
+    f.msg = osm::ros_adapter::organizedCloud(points, spec.width, spec.height, "camera_depth_optical_frame");
     for (const Eigen::Vector3f& p : points) {
       if (!p.allFinite()) continue;
       const Eigen::Vector3d m = f.optical_in_map * p.cast<double>();

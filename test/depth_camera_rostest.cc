@@ -9,7 +9,6 @@
 #include <nav_msgs/OccupancyGrid.h>
 #include <ros/ros.h>
 #include <sensor_msgs/PointCloud2.h>
-#include <sensor_msgs/point_cloud2_iterator.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <tf2_msgs/TFMessage.h>
 #include <tf2_ros/transform_broadcaster.h>
@@ -21,49 +20,13 @@
 #include <string>
 
 #include "octo_slice_mapper/sim/depth_camera.h"
+#include "ros/point_cloud_conversion.h"
+#include "ros_test_support.h"
 
 namespace osm = octo_slice_mapper;
 
-namespace {
-
-bool waitFor(const std::function<bool()>& condition, double seconds) {
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(seconds);
-  while (ros::ok() && ros::WallTime::now() < deadline) {
-    ros::spinOnce();
-    if (condition()) return true;
-    ros::WallDuration(0.02).sleep();
-  }
-  return false;
-}
-
-int cellOf(const nav_msgs::OccupancyGrid::ConstPtr& grid, double x, double y) {
-  if (!grid) return -2;
-  const auto& info = grid->info;
-  const int i = static_cast<int>(std::floor((x - info.origin.position.x) / info.resolution));
-  const int j = static_cast<int>(std::floor((y - info.origin.position.y) / info.resolution));
-  if (i < 0 || j < 0 || i >= int(info.width) || j >= int(info.height)) return -1;
-  return grid->data[std::size_t(j) * info.width + i];
-}
-
-sensor_msgs::PointCloud2 organized(const std::vector<Eigen::Vector3f>& points, int width, int height) {
-  sensor_msgs::PointCloud2 msg;
-  msg.header.frame_id = "camera_depth_optical_frame";
-  sensor_msgs::PointCloud2Modifier modifier(msg);
-  modifier.setPointCloud2FieldsByString(1, "xyz");
-  modifier.resize(std::size_t(width) * height);
-  msg.width = width;
-  msg.height = height;
-  msg.row_step = msg.point_step * width;
-  msg.is_dense = false;
-  sensor_msgs::PointCloud2Iterator<float> x(msg, "x"), y(msg, "y"), z(msg, "z");
-  for (const Eigen::Vector3f& p : points) {
-    *x = p.x(), *y = p.y(), *z = p.z();
-    ++x, ++y, ++z;
-  }
-  return msg;
-}
-
-}  // namespace
+using octo_slice_mapper::test_support::cellOf;
+using octo_slice_mapper::test_support::waitFor;
 
 TEST(DepthCamera, TheNavigationBandShowsTheTableTopAndTheOverhangTheLidarBandDoesNot) {
   ros::NodeHandle nh;
@@ -108,7 +71,8 @@ TEST(DepthCamera, TheNavigationBandShowsTheTableTopAndTheOverhangTheLidarBandDoe
       t.child_frame_id = "camera_depth_optical_frame";
       t.header.stamp = stamp;
       tf.sendTransform(t);
-      sensor_msgs::PointCloud2 cloud = organized(osm::sim::depthFrame(room, pose, spec, &rng), spec.width, spec.height);
+      sensor_msgs::PointCloud2 cloud = osm::ros_adapter::organizedCloud(osm::sim::depthFrame(room, pose, spec, &rng), spec.width, spec.height,
+                                                                  "camera_depth_optical_frame");
       cloud.header.stamp = stamp;
       ros::WallDuration(0.05).sleep();
       t.header.stamp = stamp + ros::Duration(0.05);  // tf past the cloud's stamp: no waiting

@@ -18,6 +18,7 @@
 
 #include "octo_slice_mapper/SaveMap.h"
 #include "octo_slice_mapper/atomic_file.h"
+#include "ros_test_support.h"
 
 namespace {
 
@@ -71,13 +72,7 @@ class HostileSenderTest : public ::testing::Test {
   }
 
   bool waitFor(const std::function<bool()>& condition, double seconds) {
-    const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(seconds);
-    while (ros::ok() && ros::WallTime::now() < deadline) {
-      ros::spinOnce();
-      if (condition()) return true;
-      ros::WallDuration(0.02).sleep();
-    }
-    return false;
+    return octo_slice_mapper::test_support::waitFor(condition, seconds);
   }
 
   // A 181-beam half circle: a room 3 m across with a wall `d` ahead, some of it seen at an angle.

@@ -26,6 +26,7 @@
 #include "octo_slice_mapper/Optimize.h"
 #include "octo_slice_mapper/SaveMap.h"
 #include "octo_slice_mapper/map_io.h"
+#include "ros_test_support.h"
 
 namespace {
 
@@ -69,13 +70,7 @@ class MapperNodeTest : public ::testing::Test {
   }
 
   bool waitFor(const std::function<bool()>& condition, double seconds) {
-    const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(seconds);
-    while (ros::ok() && ros::WallTime::now() < deadline) {
-      ros::spinOnce();
-      if (condition()) return true;
-      ros::WallDuration(0.02).sleep();
-    }
-    return false;
+    return octo_slice_mapper::test_support::waitFor(condition, seconds);
   }
 
   // A 181-beam half-circle scan; `range_of(angle)` gives each reading.
@@ -94,12 +89,7 @@ class MapperNodeTest : public ::testing::Test {
 
   int cellAt(double x, double y) const { return cellOf(map_, x, y); }
   static int cellOf(const nav_msgs::OccupancyGrid::ConstPtr& grid, double x, double y) {
-    if (!grid) return -2;
-    const auto& info = grid->info;
-    const int i = static_cast<int>(std::floor((x - info.origin.position.x) / info.resolution));
-    const int j = static_cast<int>(std::floor((y - info.origin.position.y) / info.resolution));
-    if (i < 0 || j < 0 || i >= int(info.width) || j >= int(info.height)) return -1;
-    return grid->data[std::size_t(j) * info.width + i];
+    return octo_slice_mapper::test_support::cellOf(grid, x, y);
   }
 
   // `times` scans of a wall d metres ahead of the laser, `gap` seconds apart.

@@ -16,12 +16,11 @@ The datasets are read from $OSM_DATA_DIR (default: ../shared/data beside the che
 import gzip
 import os
 import shutil
-import socket
-import subprocess
 import sys
 import tempfile
 
 from junit_cases import write_junit
+from ros_session import free_port, run
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 DATA = os.environ.get("OSM_DATA_DIR", os.path.join(HERE, "..", "..", "shared", "data"))
@@ -42,22 +41,6 @@ def head_of_log(src, dst, scans):
                 if seen > scans:
                     break
             out.write(line)
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def run(cmd, log, env=None):
-    """The command's exit code (its output in `log`); a hang counts as a failure, not a crash."""
-    with open(log, "w") as out:
-        try:
-            return subprocess.run(cmd, stdout=out, stderr=subprocess.STDOUT, timeout=300, env=env).returncode
-        except subprocess.TimeoutExpired:
-            out.write(f"\n(killed after 300 s: {' '.join(cmd)})\n")
-            return "a timeout"
 
 
 def cases(bin_dir, work):

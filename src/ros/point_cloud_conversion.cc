@@ -1,5 +1,7 @@
 #include "ros/point_cloud_conversion.h"
 
+#include <sensor_msgs/point_cloud2_iterator.h>
+
 #include "octo_slice_mapper/parallel_chunks.h"
 
 #include <cstring>
@@ -109,6 +111,24 @@ ScanRejection toCoreCloud(const sensor_msgs::PointCloud2& msg, const Eigen::Isom
   out->origin = sensor_pose.translation();
   cloudPointsInMap(msg, sensor_pose.cast<float>(), &out->points);
   return rejection;
+}
+
+sensor_msgs::PointCloud2 organizedCloud(const std::vector<Eigen::Vector3f>& points, int width, int height,
+                                        const std::string& frame_id) {
+  sensor_msgs::PointCloud2 msg;
+  msg.header.frame_id = frame_id;
+  sensor_msgs::PointCloud2Modifier modifier(msg);
+  modifier.setPointCloud2FieldsByString(1, "xyz");
+  modifier.resize(std::size_t(width) * height);
+  msg.width = static_cast<std::uint32_t>(width);
+  msg.height = static_cast<std::uint32_t>(height);
+  msg.row_step = msg.point_step * msg.width;
+  msg.is_dense = false;
+  sensor_msgs::PointCloud2Iterator<float> x(msg, "x"), y(msg, "y"), z(msg, "z");
+  for (std::size_t k = 0; k < points.size() && k < std::size_t(width) * height; ++k, ++x, ++y, ++z) {
+    *x = points[k].x(), *y = points[k].y(), *z = points[k].z();
+  }
+  return msg;
 }
 
 }  // namespace ros_adapter

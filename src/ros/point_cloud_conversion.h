@@ -6,6 +6,7 @@
 #include <sensor_msgs/PointCloud2.h>
 
 #include <Eigen/Geometry>
+#include <string>
 #include <vector>
 
 #include "ros/laser_scan_conversion.h"
@@ -29,6 +30,11 @@ void cloudPointsInMap(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry
 
 // Both steps: the layout checked, then the points through `sensor_pose` with the sensor's origin.
 ScanRejection toCoreCloud(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry3d& sensor_pose, SensorCloud* out);
+
+// The other way, as a depth camera's driver sends it: an organized cloud (row by row, x y z
+// FLOAT32, NaN kept), for the simulator, the benchmark and the tests.
+sensor_msgs::PointCloud2 organizedCloud(const std::vector<Eigen::Vector3f>& points, int width, int height,
+                                        const std::string& frame_id);
 
 }  // namespace ros_adapter
 }  // namespace octo_slice_mapper
