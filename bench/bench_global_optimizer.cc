@@ -110,7 +110,7 @@ void timeOnlinePass(const std::vector<osm::LogScan>& log, const osm::Mapper& all
       index.push_back(result.map.report.build_seconds);
       sweeps.push_back(result.map.report.optimize_seconds);
       revisited = revisited && result.scans_revisited_from > 0;
-      extended = extended && result.index_extended;
+      extended = extended && result.map.report.index_extended;
     }
     std::printf("  %-28s %8.2f %8.2f %8.2f %9s %9s\n", threads == 1 ? "one thread" : "every core", median(seconds),
                 median(index), median(sweeps), revisited ? "yes" : "NO", extended ? "yes" : "no");

@@ -93,11 +93,11 @@ TEST(OnlineOptimizer, AnExtendedIndexGivesTheForegroundPassesMap) {
   online.submit(s.insertUpTo(n - 20, 1));
   const OnlineOptimizerResult first = waitFor(&online);
   ASSERT_TRUE(first.map.report.converged);
-  EXPECT_FALSE(first.index_extended) << "nothing to extend yet";
+  EXPECT_FALSE(first.map.report.index_extended) << "nothing to extend yet";
   online.submit(s.insertUpTo(n, 2));
   const OnlineOptimizerResult second = waitFor(&online);
   ASSERT_GT(second.scans_revisited_from, 0u);
-  EXPECT_TRUE(second.index_extended) << "the last 20 scans stay within the tour's extent";
+  EXPECT_TRUE(second.map.report.index_extended) << "the last 20 scans stay within the tour's extent";
   const MapSnapshot all = s.mapper.optimizationInput();
   const GridImage start = warmStartFrom(first.map.grid, all.slice);
   const OptimizedMap direct = optimizeScans(all.scans, s.mapper.options().optimizer, 0.05, &start);

@@ -15,12 +15,9 @@ Usage: radish_replay_test.py RESULT_XML BIN_DIR  (JUnit, as the other tests writ
 The datasets are read from $OSM_DATA_DIR (default: ../shared/data beside the checkout)."""
 import gzip
 import os
-import shutil
 import sys
-import tempfile
 
-from junit_cases import write_junit
-from ros_session import free_port, run
+from ros_session import free_port, run, run_cases
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 DATA = os.environ.get("OSM_DATA_DIR", os.path.join(HERE, "..", "..", "shared", "data"))
@@ -117,16 +114,11 @@ def failed_replay(bin_dir, work):
 
 def main():
     result_xml, bin_dir = sys.argv[1], sys.argv[2]
-    work = tempfile.mkdtemp(prefix="osm_radish_replay_")
-    def all_cases():
+
+    def all_cases(work):
         yield from cases(bin_dir, work)
         yield from failed_replay(bin_dir, work)
-    failures = write_junit("radish_replay", all_cases(), result_xml)
-    if failures:
-        print("kept for a look:", work)
-    else:
-        shutil.rmtree(work)
-    return 1 if failures else 0
+    return run_cases("radish_replay", all_cases, result_xml, "osm_radish_replay_")
 
 
 if __name__ == "__main__":

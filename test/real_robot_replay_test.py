@@ -18,12 +18,9 @@ Usage: real_robot_replay_test.py RESULT_XML BIN_DIR  (JUnit, as the other tests 
 import json
 import os
 import re
-import shutil
 import sys
-import tempfile
 
-from junit_cases import write_junit
-from ros_session import free_port, run
+from ros_session import free_port, run, run_cases
 
 RATE = "20"  # bag time per wall second
 COMPARED = [".bt", ".ot", ".pgm"]
@@ -96,13 +93,7 @@ def cases(bin_dir, work):
 
 def main():
     result_xml, bin_dir = sys.argv[1], sys.argv[2]
-    work = tempfile.mkdtemp(prefix="osm_real_robot_")
-    failures = write_junit("real_robot_replay", cases(bin_dir, work), result_xml)
-    if failures:
-        print("kept for a look:", work)
-    else:
-        shutil.rmtree(work)
-    return 1 if failures else 0
+    return run_cases("real_robot_replay", lambda work: cases(bin_dir, work), result_xml, "osm_real_robot_")
 
 
 if __name__ == "__main__":

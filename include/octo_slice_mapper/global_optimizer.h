@@ -45,6 +45,7 @@ struct OptimizeReport {
   std::size_t beams = 0;
   std::size_t ray_cells = 0;  // (cell, beam) pairs in the index
   double build_seconds = 0.0, optimize_seconds = 0.0;
+  bool index_extended = false;  // (optimizeScans) an earlier pass's index extended, not built anew
   std::size_t memory_bytes = 0;
 };
 

@@ -44,7 +44,6 @@ struct OnlineOptimizerResult {
   double newest_stamp = 0.0;
   double seconds = 0.0;  // the pass, from taking its input to leaving its result
   std::size_t scans_revisited_from = 0;  // 0: a full first sweep; else the first new scan
-  bool index_extended = false;  // the last pass's beam index extended by the new scans, not built anew
 };
 
 // The start of the next pass: the last result where it knows a cell (the pass goes on from where

@@ -4,6 +4,7 @@
 
 #include <octomap/OcTree.h>
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -26,10 +27,14 @@ struct RevisitFrom {
 
 // Hill climbing over the cells the scans observed, from all-free (the lab's start) or, when
 // `warm_start` is given, from its cells above 50 % (the incremental map's max-likelihood state);
-// with `revisit`, the first sweep restricted as RevisitFrom says.
+// with `revisit`, the first sweep restricted as RevisitFrom says. With `kept` (the background
+// pass), the optimizer is left there for the next call, and a call with `revisit` extends the beam
+// index found there by the new scans where it can (GlobalOptimizer::extend: the same index as a
+// build of all) instead of building it anew; report.index_extended says which it did.
 OptimizedMap optimizeScans(const std::vector<StoredScan>& scans, const GlobalOptimizerOptions& options,
                            double resolution, const GridImage* warm_start = nullptr,
-                           const ProgressFn& progress = {}, const RevisitFrom* revisit = nullptr);
+                           const ProgressFn& progress = {}, const RevisitFrom* revisit = nullptr,
+                           std::unique_ptr<GlobalOptimizer>* kept = nullptr);
 
 // Sets the slice-band voxels under every known cell of `grid` to the tree's clamping bound
 // (occupied -> max, free -> min); unknown cells are left alone. `grid` must be aligned with the

@@ -92,6 +92,7 @@ class SliceGrid {
   unsigned band_common_depth_;
   std::uint16_t origin_key_x_ = 0, origin_key_y_ = 0;
   int width_ = 0, height_ = 0;
+  std::vector<std::uint32_t> columns_;  // updateColumns' scratch: the columns to recompute
   std::vector<std::int8_t> data_;
   std::uint64_t geometry_ = 0;
 };

@@ -113,24 +113,10 @@ void OnlineOptimizer::run() {
     const GridImage start = warmStartFrom(last, input.incremental);
     OnlineOptimizerResult result;
     const GlobalOptimizerOptions& options = input.options ? *input.options : options_;
-    // As optimizeScans() does it, but from the last pass's index extended by the new scans where
-    // it can be (the same index as a build of all).
-    result.index_extended = revisit_from > 0 && optimizer_ && optimizer_->extend(input.scans, revisit_from);
-    if (!result.index_extended) {
-      optimizer_ = std::make_unique<GlobalOptimizer>(options, resolution_);
-      optimizer_->build(input.scans);
-    }
-    optimizer_->startFrom(start);
-    result.map.report.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    const double build_seconds = result.map.report.build_seconds;
-    if (revisit_from > 0) {
-      const std::vector<std::uint8_t> look = optimizer_->cellsToRevisit(revisit_from, last);
-      result.map.report = optimizer_->optimize({}, &look);
-    } else {
-      result.map.report = optimizer_->optimize();
-    }
-    result.map.report.build_seconds = build_seconds;
-    result.map.grid = inFrameOf(cropToKnown(optimizer_->result()), input.incremental);
+    const RevisitFrom revisit{revisit_from, &last};
+    result.map = optimizeScans(input.scans, options, resolution_, &start, {}, revisit_from > 0 ? &revisit : nullptr,
+                               &optimizer_);
+    result.map.grid = inFrameOf(result.map.grid, input.incremental);
     result.scans_revisited_from = revisit_from;
     result.version = input.version;
     result.newest_stamp = input.newest_stamp;

@@ -10,11 +10,18 @@ namespace octo_slice_mapper {
 
 OptimizedMap optimizeScans(const std::vector<StoredScan>& scans, const GlobalOptimizerOptions& options,
                            double resolution, const GridImage* warm_start, const ProgressFn& progress,
-                           const RevisitFrom* revisit) {
+                           const RevisitFrom* revisit, std::unique_ptr<GlobalOptimizer>* kept) {
   const auto t0 = std::chrono::steady_clock::now();
-  GlobalOptimizer optimizer(options, resolution);
-  optimizer.build(scans, progress);
+  std::unique_ptr<GlobalOptimizer> own;
+  std::unique_ptr<GlobalOptimizer>& held = kept ? *kept : own;
+  const bool extended = revisit && revisit->earlier && held && held->extend(scans, revisit->first_new_scan);
+  if (!extended) {
+    held = std::make_unique<GlobalOptimizer>(options, resolution);
+    held->build(scans, progress);
+  }
+  GlobalOptimizer& optimizer = *held;
   if (warm_start) optimizer.startFrom(*warm_start);
+  else if (extended) optimizer.startEmpty();  // the new beams' records are set by a start
   const double build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   OptimizedMap out;
   if (revisit && revisit->earlier) {
@@ -24,6 +31,7 @@ OptimizedMap optimizeScans(const std::vector<StoredScan>& scans, const GlobalOpt
     out.report = optimizer.optimize(progress);
   }
   out.report.build_seconds = build_seconds;
+  out.report.index_extended = extended;
   out.grid = cropToKnown(optimizer.result());
   return out;
 }

@@ -174,25 +174,20 @@ void SliceGrid::recompute(const KeyBox& box) {
 void SliceGrid::updateColumns(const std::vector<octomap::OcTreeKey>& keys, const KeyBox& box) {
   if (box.empty() || box.max[2] < band_lo_ || box.min[2] > band_hi_) return;
   ensureCovers(box.min[0], box.min[1], box.max[0], box.max[1]);
-  if (box.min[2] == box.max[2]) {  // one layer (a level scan): each key its own column
-    for (const octomap::OcTreeKey& k : keys) {
-      if (k[2] < band_lo_ || k[2] > band_hi_) continue;
-      noteLayers(k[2], k[2]);
-      data_[std::size_t(k[1] - origin_key_y_) * width_ + (k[0] - origin_key_x_)] = columnValue(k[0], k[1]);
-    }
-    return;
-  }
-  // Several layers (a tilted scan, a cloud): each column once, however many of its voxels changed
-  // (a depth frame changes up to every layer of the navigation band's 16 in a column).
-  std::vector<std::uint32_t> columns;
-  columns.reserve(keys.size());
+  std::vector<std::uint32_t>& columns = columns_;  // reused: no allocation per scan
+  columns.clear();
   for (const octomap::OcTreeKey& k : keys) {
     if (k[2] < band_lo_ || k[2] > band_hi_) continue;
     noteLayers(k[2], k[2]);
     columns.push_back(std::uint32_t(k[1]) << 16 | k[0]);
   }
-  std::sort(columns.begin(), columns.end());
-  columns.erase(std::unique(columns.begin(), columns.end()), columns.end());
+  // Keys in several layers (a tilted scan, a cloud): each column once, however many of its voxels
+  // changed (a depth frame changes up to all 16 layers of the navigation band in a column). A
+  // level scan's keys are one per column already.
+  if (box.min[2] != box.max[2]) {
+    std::sort(columns.begin(), columns.end());
+    columns.erase(std::unique(columns.begin(), columns.end()), columns.end());
+  }
   for (std::uint32_t c : columns) {
     const std::uint16_t kx = c & 0xFFFF, ky = c >> 16;
     data_[std::size_t(ky - origin_key_y_) * width_ + (kx - origin_key_x_)] = columnValue(kx, ky);

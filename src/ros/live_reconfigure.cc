@@ -1,6 +1,11 @@
 #include "ros/live_reconfigure.h"
 
+#include <cstring>
 #include <sstream>
+#include <stdexcept>
+#include <string>
+
+#include "octo_slice_mapper/option_table.h"
 
 namespace octo_slice_mapper {
 namespace ros_adapter {
@@ -22,38 +27,39 @@ LiveReconfigure::~LiveReconfigure() { spinner_->stop(); }
 
 namespace {
 
-// Each tunable option: its field in the generated config and in MapperOptions (same name, the
-// option table's).
+// Each tunable option: its field in the generated config; its field in MapperOptions is the
+// option table's of the same name (option_table.h), so that no accessor is written twice.
 struct Tunable {
   const char* name;
   double MapperConfig::*config;
-  double& (*option)(MapperOptions&);
 };
 
 const Tunable kTunables[] = {
-    {"p_free", &MapperConfig::p_free, [](MapperOptions& o) -> double& { return o.insert.model.p_free; }},
-    {"p_occupied", &MapperConfig::p_occupied, [](MapperOptions& o) -> double& { return o.insert.model.p_occupied; }},
-    {"sigma_base", &MapperConfig::sigma_base, [](MapperOptions& o) -> double& { return o.insert.model.sigma_base; }},
-    {"sigma_per_meter", &MapperConfig::sigma_per_meter,
-     [](MapperOptions& o) -> double& { return o.insert.model.sigma_per_meter; }},
-    {"sigma_angle_gain", &MapperConfig::sigma_angle_gain,
-     [](MapperOptions& o) -> double& { return o.insert.model.sigma_angle_gain; }},
-    {"cone_taper_fraction", &MapperConfig::cone_taper_fraction,
-     [](MapperOptions& o) -> double& { return o.insert.model.cone_taper_fraction; }},
-    {"beam_opening_angle", &MapperConfig::beam_opening_angle,
-     [](MapperOptions& o) -> double& { return o.insert.model.beam_opening_angle; }},
-    {"no_return_clear_distance", &MapperConfig::no_return_clear_distance,
-     [](MapperOptions& o) -> double& { return o.insert.model.no_return_clear_distance; }},
-    {"slice_min_z", &MapperConfig::slice_min_z, [](MapperOptions& o) -> double& { return o.slice.min_z; }},
-    {"slice_max_z", &MapperConfig::slice_max_z, [](MapperOptions& o) -> double& { return o.slice.max_z; }},
-    {"forward_z_hit", &MapperConfig::forward_z_hit, [](MapperOptions& o) -> double& { return o.optimizer.model.z_hit; }},
-    {"forward_z_rand", &MapperConfig::forward_z_rand, [](MapperOptions& o) -> double& { return o.optimizer.model.z_rand; }},
-    {"forward_z_miss", &MapperConfig::forward_z_miss, [](MapperOptions& o) -> double& { return o.optimizer.model.z_miss; }},
-    {"forward_sigma_base", &MapperConfig::forward_sigma_base,
-     [](MapperOptions& o) -> double& { return o.optimizer.model.sigma_base; }},
-    {"forward_sigma_per_meter", &MapperConfig::forward_sigma_per_meter,
-     [](MapperOptions& o) -> double& { return o.optimizer.model.sigma_per_meter; }},
+    {"p_free", &MapperConfig::p_free},
+    {"p_occupied", &MapperConfig::p_occupied},
+    {"sigma_base", &MapperConfig::sigma_base},
+    {"sigma_per_meter", &MapperConfig::sigma_per_meter},
+    {"sigma_angle_gain", &MapperConfig::sigma_angle_gain},
+    {"cone_taper_fraction", &MapperConfig::cone_taper_fraction},
+    {"beam_opening_angle", &MapperConfig::beam_opening_angle},
+    {"no_return_clear_distance", &MapperConfig::no_return_clear_distance},
+    {"slice_min_z", &MapperConfig::slice_min_z},
+    {"slice_max_z", &MapperConfig::slice_max_z},
+    {"forward_z_hit", &MapperConfig::forward_z_hit},
+    {"forward_z_rand", &MapperConfig::forward_z_rand},
+    {"forward_z_miss", &MapperConfig::forward_z_miss},
+    {"forward_sigma_base", &MapperConfig::forward_sigma_base},
+    {"forward_sigma_per_meter", &MapperConfig::forward_sigma_per_meter},
 };
+
+// The option table's field `name` in `options` (every tunable is a double there; checked by
+// parameter_table_test against cfg/Mapper.cfg).
+double& optionField(MapperOptions& options, const char* name) {
+  for (const OptionSpec<MapperOptions>& spec : mapperOptionTable()) {
+    if (std::strcmp(spec.name, name) == 0) return *std::get<double*>(spec.field(options));
+  }
+  throw std::logic_error(std::string("live_reconfigure: no option ") + name);
+}
 
 }  // namespace
 
@@ -67,8 +73,8 @@ void LiveReconfigure::onConfig(MapperConfig& config, std::uint32_t) {
   MapperOptions wanted = now;
   std::ostringstream changed;  // for the log; nothing to do when nothing changed (the server's first call)
   for (const Tunable& t : kTunables) {
-    const double before = t.option(now), after = config.*t.config;
-    t.option(wanted) = after;
+    const double before = optionField(now, t.name), after = config.*t.config;
+    optionField(wanted, t.name) = after;
     if (before != after) changed << ' ' << t.name << ' ' << before << " -> " << after;
   }
   if (changed.str().empty()) return;
@@ -76,7 +82,7 @@ void LiveReconfigure::onConfig(MapperConfig& config, std::uint32_t) {
   if (!session_->reconfigure(wanted, &error)) {
     ROS_WARN("reconfigure refused (%s):%s; the model stays as it was", error.c_str(), changed.str().c_str());
     // The server keeps (and shows rqt) what this returns: the values in force, not the refused ones.
-    for (const Tunable& t : kTunables) config.*t.config = t.option(now);
+    for (const Tunable& t : kTunables) config.*t.config = optionField(now, t.name);
     return;
   }
   ROS_INFO("reconfigure:%s (for the following scans; the slice is rebuilt for the band)", changed.str().c_str());

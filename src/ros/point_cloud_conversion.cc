@@ -2,8 +2,6 @@
 
 #include <sensor_msgs/point_cloud2_iterator.h>
 
-#include "octo_slice_mapper/parallel_chunks.h"
-
 #include <cstring>
 #include <limits>
 
@@ -86,21 +84,17 @@ void cloudPointsInMap(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry
   const sensor_msgs::PointField& fx = *fieldNamed(msg, "x");
   const sensor_msgs::PointField& fy = *fieldNamed(msg, "y");
   const sensor_msgs::PointField& fz = *fieldNamed(msg, "z");
-  points->resize(std::size_t(msg.width) * msg.height);
-  // Rows in chunks on every core (a 640 x 480 frame: 1.5 ms on one).
-  const unsigned workers = workersFor(0, points->size(), std::size_t(1) << 15);
-  forEachChunk(msg.height, workers, [&](std::size_t row_begin, std::size_t row_end, unsigned) {
-    for (std::size_t row = row_begin; row < row_end; ++row) {
-      const std::uint8_t* p = msg.data.data() + row * msg.row_step;
-      Eigen::Vector3f* out = points->data() + row * msg.width;
-      for (std::uint32_t col = 0; col < msg.width; ++col, p += msg.point_step) {
-        const Eigen::Vector3f v(coordinate(p, fx), coordinate(p, fy), coordinate(p, fz));
-        // A non-finite point stays so (the transform would mix NaN into the other coordinates anyway).
-        out[col] = v.allFinite() ? Eigen::Vector3f(to_map * v)
-                                 : Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN());
-      }
+  points->clear();
+  points->reserve(std::size_t(msg.width) * msg.height);
+  for (std::uint32_t row = 0; row < msg.height; ++row) {
+    const std::uint8_t* p = msg.data.data() + std::size_t(row) * msg.row_step;
+    for (std::uint32_t col = 0; col < msg.width; ++col, p += msg.point_step) {
+      const Eigen::Vector3f v(coordinate(p, fx), coordinate(p, fy), coordinate(p, fz));
+      // A non-finite point stays so (the transform would mix NaN into the other coordinates anyway).
+      points->push_back(v.allFinite() ? Eigen::Vector3f(to_map * v)
+                                      : Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
     }
-  });
+  }
 }
 
 ScanRejection toCoreCloud(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry3d& sensor_pose, SensorCloud* out) {
