@@ -17,7 +17,7 @@ import gzip
 import os
 import sys
 
-from ros_session import free_port, run, run_cases
+from ros_session import ros_session, run, run_cases
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 DATA = os.environ.get("OSM_DATA_DIR", os.path.join(HERE, "..", "..", "shared", "data"))
@@ -57,16 +57,8 @@ def cases(bin_dir, work):
                os.path.join(work, name + "_offline.txt")):
             yield name, False, "octo_slice_map failed"
             continue
-        params = os.path.join(work, name + "_params.yaml")
-        with open(params, "w") as f:
-            f.write(f"maps_dir: {work}\n")
+        params, port, env, devel_env = ros_session(bin_dir, work, name + "_")
         launch_log = os.path.join(work, name + "_roslaunch.txt")
-        port = free_port()  # a roscore of its own, whatever else runs on this machine
-        env = dict(os.environ, ROS_MASTER_URI=f"http://localhost:{port}")
-        # Through the devel space's env.sh: ctest runs with the environment cached when cmake
-        # first ran, which on a fresh checkout lacks the devel Python path, and play_bag imports
-        # the generated SaveMap service from there.
-        devel_env = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(bin_dir))), "env.sh")
         code = run([devel_env, "roslaunch", "-p", str(port), "octo_slice_mapper", "replay.launch", "bag:=" + bag,
                     "save:=" + name + "_ros", "optimize:=true", "warm_start:=true", "rate:=" + RATE,
                     "params_file:=" + params], launch_log, env)
@@ -98,13 +90,8 @@ def failed_replay(bin_dir, work):
     if not os.path.exists(bag):
         yield "failed replay", False, "no bag from the cases before"
         return
-    params = os.path.join(work, "failed_params.yaml")
-    with open(params, "w") as f:
-        f.write(f"maps_dir: {work}\n")
+    params, port, env, devel_env = ros_session(bin_dir, work, "failed_")
     log = os.path.join(work, "failed_roslaunch.txt")
-    port = free_port()
-    env = dict(os.environ, ROS_MASTER_URI=f"http://localhost:{port}")
-    devel_env = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(bin_dir))), "env.sh")
     code = run([devel_env, os.path.join(HERE, "..", "scripts", "replay"), bag, "-p", str(port), "save:=../outside",
                 "rate:=" + RATE, "params_file:=" + params], log, env)
     text = open(log).read()

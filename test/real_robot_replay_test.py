@@ -20,7 +20,7 @@ import os
 import re
 import sys
 
-from ros_session import free_port, run, run_cases
+from ros_session import ros_session, run, run_cases
 
 RATE = "20"  # bag time per wall second
 COMPARED = [".bt", ".ot", ".pgm"]
@@ -47,13 +47,8 @@ def cases(bin_dir, work):
     if run([os.path.join(bin_dir, "octo_slice_map"), "--bag", bag, "--out", offline], offline_log):
         yield "offline", False, f"octo_slice_map failed (see {offline_log})"
         return
-    params = os.path.join(work, "params.yaml")
-    with open(params, "w") as f:
-        f.write(f"maps_dir: {work}\n")
+    params, port, env, devel_env = ros_session(bin_dir, work, "")
     launch_log = os.path.join(work, "roslaunch.txt")
-    port = free_port()
-    env = dict(os.environ, ROS_MASTER_URI=f"http://localhost:{port}")
-    devel_env = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(bin_dir))), "env.sh")
     code = run([devel_env, "roslaunch", "-p", str(port), "octo_slice_mapper", "replay.launch", "bag:=" + bag,
                 "save:=ros", "rate:=" + RATE, "params_file:=" + params], launch_log, env)
     text = open(launch_log).read()
