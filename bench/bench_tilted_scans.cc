@@ -6,7 +6,7 @@
 // 0.26 m up, yawed 0.02 rad. The lidar is RPLIDAR-like: 720 beams over 360 deg, 12 m, REP 117
 // (+inf for no return). Prints medians over repetitions (ms per scan) and their ratio.
 //
-//   bench_tilted_scans [--repeats N] [--resolution M] [--slice-report DIR]
+//   bench_tilted_scans [--repeats N] [--resolution M] [--slice-report DIR] [--tilted-only | --level-only]
 //
 // --slice-report DIR: what the tilt does to the slice instead of timing: the level session's
 // slice against the tilted one's, with the default band (0.16-0.36 m) and wider ones, as counts
@@ -69,7 +69,13 @@ double msPerScan(const std::vector<osm::Scan>& scans, double resolution, std::si
   osm::Mapper mapper(options);
   const auto t0 = Clock::now();
   *inserted = 0;
-  for (const osm::Scan& s : scans) *inserted += mapper.insert(s).ok();
+  std::size_t changed = 0;
+  for (const osm::Scan& s : scans) {
+    const osm::InsertResult r = mapper.insert(s);
+    *inserted += r.ok();
+    changed += r.updated_keys.size();
+  }
+  std::fprintf(stderr, " changed %.0f/scan ", double(changed) / scans.size());
   mapper.tree();  // what a reader of the octree would wait for
   const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count() / scans.size();
   *updates_per_scan = double(mapper.stats().voxel_updates) / scans.size();
@@ -137,10 +143,11 @@ int sliceReport(const std::vector<osm::Scan>& level, const std::vector<osm::Scan
 int main(int argc, char** argv) {
   int repeats = 5;
   double resolution = 0.05;
-  bool tilted_only = false;  // for profiling the tilted path alone
+  bool tilted_only = false, level_only = false;  // for profiling one path alone
   std::string slice_dir;
   for (int i = 1; i < argc; ++i) {
     if (std::string(argv[i]) == "--tilted-only") tilted_only = true;
+    if (std::string(argv[i]) == "--level-only") level_only = true;
     if (std::string(argv[i]) == "--slice-report" && i + 1 < argc) slice_dir = argv[i + 1];
   }
   for (int i = 1; i + 1 < argc; i += 2) {
@@ -163,7 +170,7 @@ int main(int argc, char** argv) {
   double level_updates = 0.0, tilted_updates = 0.0;
   for (int r = 0; r < repeats; ++r) {
     level_ms.push_back(tilted_only ? 1.0 : msPerScan(level, resolution, &level_ok, &level_updates));
-    tilted_ms.push_back(msPerScan(tilted, resolution, &tilted_ok, &tilted_updates));
+    tilted_ms.push_back(level_only ? 1.0 : msPerScan(tilted, resolution, &tilted_ok, &tilted_updates));
     std::fprintf(stderr, "\rrepetition %d/%d", r + 1, repeats);
   }
   std::fprintf(stderr, "\n");

@@ -72,7 +72,9 @@ class SliceGrid {
 
  private:
   void ensureCovers(std::uint16_t kx0, std::uint16_t ky0, std::uint16_t kx1, std::uint16_t ky1);
+  // Reads band_layers_, which findBandLayers() sets before each batch of columns.
   std::int8_t columnValue(std::uint16_t kx, std::uint16_t ky) const;
+  void findBandLayers();
   const octomap::OcTreeNode* bandVoxel(const octomap::OcTreeNode* top, std::uint16_t kx, std::uint16_t ky,
                                        unsigned kz) const;
 
@@ -92,6 +94,7 @@ class SliceGrid {
   unsigned band_common_depth_;
   std::uint16_t origin_key_x_ = 0, origin_key_y_ = 0;
   int width_ = 0, height_ = 0;
+  std::vector<const LayerCache::Layer*> band_layers_;  // per band layer: its cached layer, or null
   std::vector<std::uint32_t> columns_;  // updateColumns' scratch: the columns to recompute
   std::vector<std::int8_t> data_;
   std::uint64_t geometry_ = 0;

@@ -6,6 +6,7 @@
 #include <cstring>
 
 #include "octo_slice_mapper/parallel_chunks.h"
+#include "octo_slice_mapper/voxel_traversal.h"
 
 namespace octo_slice_mapper {
 namespace {
@@ -59,33 +60,23 @@ void GlobalOptimizer::listConeCells(const Beam& beam, std::vector<std::size_t>* 
   cells->erase(std::unique(cells->begin(), cells->end()), cells->end());
 }
 
+// The grid's cells along one ray from the beam's origin, nearest first, through the project's
+// one grid walk (voxel_traversal.h), in cells of travel; cells outside the grid are skipped.
 template <typename Visit>
 void GlobalOptimizer::walkRay(const Beam& beam, float dir_x, float dir_y, Visit&& visit) const {
-  Beam ray = beam;
-  ray.dx = dir_x;
-  ray.dy = dir_y;
   const double fx = (beam.ox - x0_) / resolution_, fy = (beam.oy - y0_) / resolution_;
   int i = static_cast<int>(std::floor(fx)), j = static_cast<int>(std::floor(fy));
-  const double ex = fx + ray.dx * ray.length / resolution_, ey = fy + ray.dy * ray.length / resolution_;
+  const double ex = fx + dir_x * beam.length / resolution_, ey = fy + dir_y * beam.length / resolution_;
   const int ie = static_cast<int>(std::floor(ex)), je = static_cast<int>(std::floor(ey));
-  const int step_i = ray.dx > 0 ? 1 : -1, step_j = ray.dy > 0 ? 1 : -1;
   const double inf = std::numeric_limits<double>::infinity();
-  const double delta_i = ray.dx != 0 ? std::abs(1.0 / ray.dx) : inf;
-  const double delta_j = ray.dy != 0 ? std::abs(1.0 / ray.dy) : inf;
-  double t_i = ray.dx != 0 ? ((ray.dx > 0 ? (i + 1 - fx) : (fx - i)) * delta_i) : inf;
-  double t_j = ray.dy != 0 ? ((ray.dy > 0 ? (j + 1 - fy) : (fy - j)) * delta_j) : inf;
-  int steps = std::abs(ie - i) + std::abs(je - j);
-  for (;;) {
-    if (i >= 0 && j >= 0 && i < width_ && j < height_ && !visit(std::size_t(j) * width_ + i)) return;
-    if (steps-- <= 0) break;
-    if (t_i < t_j) {
-      i += step_i;
-      t_i += delta_i;
-    } else {
-      j += step_j;
-      t_j += delta_j;
-    }
-  }
+  const double delta_i = dir_x != 0 ? std::abs(1.0 / dir_x) : inf;
+  const double delta_j = dir_y != 0 ? std::abs(1.0 / dir_y) : inf;
+  const WalkAxis x{dir_x > 0 ? 1 : -1, dir_x != 0 ? ((dir_x > 0 ? (i + 1 - fx) : (fx - i)) * delta_i) : inf, delta_i};
+  const WalkAxis y{dir_y > 0 ? 1 : -1, dir_y != 0 ? ((dir_y > 0 ? (j + 1 - fy) : (fy - j)) * delta_j) : inf, delta_j};
+  const int steps = std::abs(ie - i) + std::abs(je - j);
+  walkPlane(i, j, x, y, steps, [&](int ci, int cj, double) {
+    return !(ci >= 0 && cj >= 0 && ci < width_ && cj < height_) || visit(std::size_t(cj) * width_ + ci);
+  });
 }
 
 Eigen::Vector2d GlobalOptimizer::centre(std::size_t cell) const {

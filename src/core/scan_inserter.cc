@@ -1,6 +1,7 @@
 #include "octo_slice_mapper/scan_inserter.h"
 
 #include "octo_slice_mapper/parallel_chunks.h"
+#include "octo_slice_mapper/voxel_traversal.h"
 
 #include <algorithm>
 #include <cmath>
@@ -9,107 +10,6 @@
 #include <unordered_map>
 
 namespace octo_slice_mapper {
-namespace {
-// Visits, in order, the voxels the segment from `from` to `to` crosses (Amanatides & Woo), from
-// the voxel of `from` to the voxel of `to`, both included, as visit(key, t_exit): t_exit is where
-// (as a fraction of the segment) it leaves the voxel. Inline, so nothing is stored per step.
-template <typename Visit>
-inline void traverseVoxels(const octomap::OcTree& tree, const Eigen::Vector3d& from, const Eigen::Vector3d& to,
-                           const octomap::OcTreeKey& from_key, const octomap::OcTreeKey& to_key, Visit&& visit) {
-  const double resolution = tree.getResolution();
-  const Eigen::Vector3d delta = to - from;
-  int key[3] = {from_key[0], from_key[1], from_key[2]};
-  int step[3];
-  double t_max[3], t_delta[3];
-  int steps_left = 0;
-  for (int i = 0; i < 3; ++i) {
-    steps_left += std::abs(int(to_key[i]) - key[i]);
-    if (delta[i] > 0.0) {
-      step[i] = 1;
-      t_delta[i] = resolution / delta[i];
-      t_max[i] = (tree.keyToCoord(from_key[i]) + 0.5 * resolution - from[i]) / delta[i];
-    } else if (delta[i] < 0.0) {
-      step[i] = -1;
-      t_delta[i] = -resolution / delta[i];
-      t_max[i] = (tree.keyToCoord(from_key[i]) - 0.5 * resolution - from[i]) / delta[i];
-    } else {
-      step[i] = 0;
-      t_delta[i] = t_max[i] = std::numeric_limits<double>::infinity();
-    }
-  }
-  // Exactly one axis advances per step, so the end voxel is reached after steps_left steps. The
-  // axis is x if t_x < t_y, else y, unless t_z is not above that one: then z. Selected without a
-  // branch (as in traverseLevel): along a slanted ray which axis comes next is unpredictable, and
-  // the branches made a tilted scan's rays 3x the cost of a level one's (issue 21).
-  int kx = key[0], ky = key[1], kz = key[2];
-  double tx = t_max[0], ty = t_max[1], tz = t_max[2];
-  for (;; --steps_left) {
-    const bool x_before_y = tx < ty;
-    const double t_xy = x_before_y ? tx : ty;
-    const bool z_next = !(t_xy < tz);
-    visit(octomap::OcTreeKey(kx, ky, kz), z_next ? tz : t_xy);
-    if (steps_left == 0) break;
-    const bool x_next = !z_next && x_before_y, y_next = !z_next && !x_before_y;
-    const double next_tx = tx + t_delta[0], next_ty = ty + t_delta[1], next_tz = tz + t_delta[2];
-    kx = x_next ? kx + step[0] : kx;
-    ky = y_next ? ky + step[1] : ky;
-    kz = z_next ? kz + step[2] : kz;
-    tx = x_next ? next_tx : tx;
-    ty = y_next ? next_ty : ty;
-    tz = z_next ? next_tz : tz;
-  }
-  if (kx != to_key[0] || ky != to_key[1] || kz != to_key[2]) visit(to_key, 1.0);  // rounding took another route: still end at the return
-}
-
-// The same walk for a segment in one horizontal layer (from.z == to.z): the same voxels and
-// t_exit as traverseVoxels gives for it (its z step never wins). Branch-free per step: which axis
-// advances is unpredictable along a slanted ray, and a mispredicted branch per voxel costs more
-// than the rest of the step.
-template <typename Visit>
-inline void traverseLevel(const octomap::OcTree& tree, const Eigen::Vector3d& from, const Eigen::Vector3d& to,
-                          const octomap::OcTreeKey& from_key, const octomap::OcTreeKey& to_key, Visit&& visit) {
-  const double resolution = tree.getResolution();
-  constexpr double kNever = 1e300;  // finite, so that 0 * kNever stays 0
-  int key[2] = {from_key[0], from_key[1]};
-  int step[2];
-  double t_max[2], t_delta[2];
-  int steps_left = 0;
-  for (int i = 0; i < 2; ++i) {
-    const double delta = to[i] - from[i];
-    steps_left += std::abs(int(to_key[i]) - key[i]);
-    if (delta > 0.0) {
-      step[i] = 1;
-      t_delta[i] = resolution / delta;
-      t_max[i] = (tree.keyToCoord(from_key[i]) + 0.5 * resolution - from[i]) / delta;
-    } else if (delta < 0.0) {
-      step[i] = -1;
-      t_delta[i] = -resolution / delta;
-      t_max[i] = (tree.keyToCoord(from_key[i]) - 0.5 * resolution - from[i]) / delta;
-    } else {
-      step[i] = 0;
-      t_delta[i] = t_max[i] = kNever;
-    }
-  }
-  const octomap::key_type z = from_key[2];
-  int kx = key[0], ky = key[1];
-  double tx = t_max[0], ty = t_max[1];
-  for (;; --steps_left) {
-    const bool x_first = tx < ty;  // ties step y, as traverseVoxels does
-    visit(octomap::OcTreeKey(kx, ky, z), std::min(tx, ty));
-    if (steps_left == 0) break;
-    // Both candidates computed, one selected (conditional moves): the loop-carried chain is a
-    // compare and a select, not a load indexed by the compare (measured: 0.40 -> 0.36 ms/scan).
-    const double next_tx = tx + t_delta[0], next_ty = ty + t_delta[1];
-    kx = x_first ? kx + step[0] : kx;
-    ky = x_first ? ky : ky + step[1];
-    tx = x_first ? next_tx : tx;
-    ty = x_first ? ty : next_ty;
-  }
-  if (kx != to_key[0] || ky != to_key[1]) visit(to_key, 1.0);
-}
-
-}  // namespace
-
 ScanInserter::ScanInserter(octomap::OcTree* tree, const InsertOptions& options)
     : tree_(tree),
       options_(options),
@@ -474,18 +374,19 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
                                    : model_.noReturnUpdateInCone(beam.length, along, q, cone);
       if (value != 0.0f) emit(key, value);
     };
+    // OcTree::keyToCoord with the tree's constants in registers (through tree_ they are reloaded per voxel).
+    auto coord = [resolution, center](octomap::key_type k) { return (double(int(k) - center) + 0.5) * resolution; };
+    const double ox = origin.x(), oy = origin.y(), oz = origin.z();
     auto evaluate = [&](const octomap::OcTreeKey& key) __attribute__((always_inline)) {
-      const octomap::point3d c = tree_->keyToCoord(key);
-      const Eigen::Vector3d v(c.x() - origin.x(), c.y() - origin.y(), c.z() - origin.z());
+      // The centre as OcTree::keyToCoord(key) gives it (a point3d: float coordinates).
+      const Eigen::Vector3d v(double(float(coord(key[0]))) - ox, double(float(coord(key[1]))) - oy,
+                              double(float(coord(key[2]))) - oz);
       const double along = v.dot(beam.direction);
       judge(key, along, (v - std::max(0.0, along) * beam.direction).squaredNorm());
     };
     // For a scan beam in a level scan, the same in the plane: `across` is the in-plane normal of
     // the axis, and the voxel centre's height above the origin is the same for the whole layer.
     const double dz = tree_->keyToCoord(origin_key[2]) - origin.z();
-    // OcTree::keyToCoord with the tree's constants in registers (through tree_ they are reloaded per voxel).
-    auto coord = [resolution, center](octomap::key_type k) { return (double(int(k) - center) + 0.5) * resolution; };
-    const double ox = origin.x(), oy = origin.y();
     auto evaluate_level = [&](const octomap::OcTreeKey& key) __attribute__((always_inline)) {
       const double vx = coord(key[0]) - ox, vy = coord(key[1]) - oy;
       const double along = vx * beam.direction.x() + vy * beam.direction.y();

@@ -15,6 +15,9 @@ std::uint64_t nextGeometry() {
   return next++;
 }
 
+// A cell waiting to be recomputed: no value a cell can hold (0..100, or unknown).
+constexpr std::int8_t kPending = 127;
+
 }  // namespace
 
 SliceGrid::SliceGrid(const octomap::OcTree& tree, const SliceOptions& options, const LayerCache* cache)
@@ -82,41 +85,49 @@ const octomap::OcTreeNode* SliceGrid::bandVoxel(const octomap::OcTreeNode* top, 
   return node;
 }
 
+void SliceGrid::findBandLayers() {
+  band_layers_.assign(band_hi_ - band_lo_ + 1, nullptr);
+  if (!cache_) return;
+  for (unsigned kz = band_lo_; kz <= band_hi_; ++kz) band_layers_[kz - band_lo_] = cache_->findLayer(std::uint16_t(kz));
+}
+
 // One descent to the deepest node holding the whole band of this column, then a few levels down
 // per layer: 5 layers cost ~1.5 root-to-leaf walks instead of 5. Voxels of cached layers are read
-// from the cache, which the tree may lag behind.
+// from the cache (band_layers_, found once per update), which the tree may lag behind. Compared
+// as log-odds, one probability at the end: it is monotonic in them, and a tilted scan's columns
+// have several known layers (two exp() per layer were a quarter of its slice update).
 std::int8_t SliceGrid::columnValue(std::uint16_t kx, std::uint16_t ky) const {
   const octomap::OcTreeNode* top = nullptr;
   bool searched = false;  // the descent to `top` only when a layer needs the tree
-  double best = -1.0, least = 2.0;  // the most and the least occupied known voxel
+  bool known = false;
+  float most = 0.0f, least = 0.0f;  // log-odds of the most and the least occupied known voxel
+  const auto take = [&](float log_odds) {
+    most = known ? std::max(most, log_odds) : log_odds;
+    least = known ? std::min(least, log_odds) : log_odds;
+    known = true;
+  };
+  const unsigned cell = LayerCache::cellIndex(kx, ky);
   for (unsigned kz = band_lo_; kz <= band_hi_; ++kz) {
     if (!layer_may_be_known_[kz - band_lo_]) continue;
-    float log_odds = 0.0f;
-    switch (cache_ ? cache_->lookup(kx, ky, kz, &log_odds) : LayerCache::Lookup::kNotCached) {
-      case LayerCache::Lookup::kKnown:
-        best = std::max(best, octomap::probability(log_odds));
-        least = std::min(least, octomap::probability(log_odds));
-        break;
-      case LayerCache::Lookup::kUnknown:
-        break;
-      case LayerCache::Lookup::kNotCached:  // the tree is current for it (a pruned leaf may hold the whole band)
-        if (!searched) {
-          top = tree_.search(octomap::OcTreeKey(kx, ky, band_lo_), band_common_depth_);
-          searched = true;
-        }
-        if (const octomap::OcTreeNode* node = top ? bandVoxel(top, kx, ky, kz) : nullptr) {
-          best = std::max(best, node->getOccupancy());
-          least = std::min(least, node->getOccupancy());
-        }
-        break;
+    const LayerCache::Layer* layer = band_layers_[kz - band_lo_];
+    const LayerCache::Tile* tile = layer ? layer->tile(kx, ky) : nullptr;
+    const std::uint8_t state = tile ? tile->state[cell] & LayerCache::kLoadMask : LayerCache::kUnloaded;
+    if (state == LayerCache::kKnown) {
+      take(tile->value[cell]);
+    } else if (state == LayerCache::kUnloaded) {  // the tree is current for it (a pruned leaf may hold the whole band)
+      if (!searched) {
+        top = tree_.search(octomap::OcTreeKey(kx, ky, band_lo_), band_common_depth_);
+        searched = true;
+      }
+      if (const octomap::OcTreeNode* node = top ? bandVoxel(top, kx, ky, kz) : nullptr) take(node->getLogOdds());
     }
   }
-  if (best < 0.0) return kUnknownCell;
+  if (!known) return kUnknownCell;
   // An obstacle more likely than not in any layer blocks the column. Else the column is as free as
   // its best-observed layer: a tilted scan's beams graze the layers beside theirs with the cone's
   // edge, and the weak evidence there (45 %, say) must not hide the layer they crossed (issue 21:
   // a degree of tilt turned a fifth of the free cells grey, unknown to map_server).
-  const double value = best >= 0.5 ? best : least;
+  const double value = octomap::probability(most >= 0.0f ? most : least);
   return static_cast<std::int8_t>(std::lround(value * 100.0));
 }
 
@@ -163,6 +174,7 @@ void SliceGrid::update(const KeyBox& box) {
 }
 
 void SliceGrid::recompute(const KeyBox& box) {
+  findBandLayers();
   for (unsigned ky = box.min[1]; ky <= box.max[1]; ++ky) {
     std::int8_t* row = &data_[std::size_t(ky - origin_key_y_) * width_];
     for (unsigned kx = box.min[0]; kx <= box.max[0]; ++kx) {
@@ -174,23 +186,25 @@ void SliceGrid::recompute(const KeyBox& box) {
 void SliceGrid::updateColumns(const std::vector<octomap::OcTreeKey>& keys, const KeyBox& box) {
   if (box.empty() || box.max[2] < band_lo_ || box.min[2] > band_hi_) return;
   ensureCovers(box.min[0], box.min[1], box.max[0], box.max[1]);
+  // Each column once, however many of its voxels changed (a tilted scan's or a cloud's keys lie in
+  // several layers; a depth frame changes up to all 16 layers of the navigation band in a
+  // column): a column is listed when first met and its cell marked kPending until recomputed (a
+  // sort of the columns was a sixth of a tilted scan's slice update).
   std::vector<std::uint32_t>& columns = columns_;  // reused: no allocation per scan
   columns.clear();
   for (const octomap::OcTreeKey& k : keys) {
     if (k[2] < band_lo_ || k[2] > band_hi_) continue;
     noteLayers(k[2], k[2]);
-    columns.push_back(std::uint32_t(k[1]) << 16 | k[0]);
+    const std::uint32_t index = std::uint32_t(k[1] - origin_key_y_) * std::uint32_t(width_) + (k[0] - origin_key_x_);
+    if (data_[index] == kPending) continue;
+    data_[index] = kPending;
+    columns.push_back(index);
   }
-  // Keys in several layers (a tilted scan, a cloud): each column once, however many of its voxels
-  // changed (a depth frame changes up to all 16 layers of the navigation band in a column). A
-  // level scan's keys are one per column already.
-  if (box.min[2] != box.max[2]) {
-    std::sort(columns.begin(), columns.end());
-    columns.erase(std::unique(columns.begin(), columns.end()), columns.end());
-  }
-  for (std::uint32_t c : columns) {
-    const std::uint16_t kx = c & 0xFFFF, ky = c >> 16;
-    data_[std::size_t(ky - origin_key_y_) * width_ + (kx - origin_key_x_)] = columnValue(kx, ky);
+  findBandLayers();
+  for (std::uint32_t index : columns) {
+    const std::uint16_t kx = std::uint16_t(origin_key_x_ + index % std::uint32_t(width_));
+    const std::uint16_t ky = std::uint16_t(origin_key_y_ + index / std::uint32_t(width_));
+    data_[index] = columnValue(kx, ky);
   }
 }
 
@@ -233,7 +247,7 @@ void SliceGrid::rebuild() {
     return;
   }
   // Only the columns some leaf reaches: sparse maps far apart cost their leaves, not their area.
-  constexpr std::int8_t kPending = 127;
+  findBandLayers();
   for (const KeyBox& leaf : columns) {
     for (unsigned ky = leaf.min[1]; ky <= leaf.max[1]; ++ky) {
       std::int8_t* row = &data_[std::size_t(ky - origin_key_y_) * width_];
