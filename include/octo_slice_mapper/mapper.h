@@ -52,7 +52,10 @@ struct MapperStats {
   std::uint64_t scans_inserted = 0;
   std::uint64_t scans_rejected = 0;  // whole scans refused (bad header, ...)
   ReadingCounts readings;            // all readings of inserted scans, per reason
-  std::uint64_t voxel_updates = 0;
+  std::uint64_t clouds_inserted = 0;
+  std::uint64_t clouds_rejected = 0;  // whole clouds refused (origin outside the octree, ...)
+  ReadingCounts cloud_points;         // all points of inserted clouds, per reason
+  std::uint64_t voxel_updates = 0;    // of scans and clouds
 };
 
 class Mapper {
@@ -115,7 +118,7 @@ class Mapper {
   // The global pass reads scans as insertion does: its reading rules, no-return range and range
   // cut follow `insert`.
   static void followInsertion(MapperOptions* options);
-  InsertResult record(InsertResult result);  // slice update + statistics
+  InsertResult record(InsertResult result, bool cloud);  // slice update + statistics
   // A snapshot's copies (the slice, its band, the kept scans if asked), without the octree.
   MapSnapshot sliceAndScans(bool with_scans) const;
 

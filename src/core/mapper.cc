@@ -49,24 +49,24 @@ void Mapper::install(std::unique_ptr<octomap::OcTree> tree, const MapperOptions&
 }
 
 InsertResult Mapper::insert(const Scan& scan) {
-  InsertResult result = record(inserter_->insert(scan));
+  InsertResult result = record(inserter_->insert(scan), /*cloud=*/false);
   if (result.ok() && options_.keep_scans) store_.add(scan);
   if (!lent_ && inserter_->cache().dirtyCount() > options_.max_unflushed_voxels) inserter_->flush();
   return result;
 }
 
 InsertResult Mapper::insertPoints(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points) {
-  return record(inserter_->insertPoints(origin, points, inserter_->model().halfAngleFor(0.0)));
+  return record(inserter_->insertPoints(origin, points, inserter_->model().halfAngleFor(0.0)), /*cloud=*/true);
 }
 
-InsertResult Mapper::record(InsertResult result) {
+InsertResult Mapper::record(InsertResult result, bool cloud) {
   if (!result.ok()) {
-    stats_.scans_rejected++;
+    (cloud ? stats_.clouds_rejected : stats_.scans_rejected)++;
     return result;
   }
   slice_->updateColumns(result.updated_keys, result.touched);
-  stats_.scans_inserted++;
-  stats_.readings += result.readings;
+  (cloud ? stats_.clouds_inserted : stats_.scans_inserted)++;
+  (cloud ? stats_.cloud_points : stats_.readings) += result.readings;
   stats_.voxel_updates += result.voxels_updated;
   return result;
 }

@@ -331,7 +331,9 @@ std::string MapperNode::summary() {
       << " scans_taken_over=" << c.scans_taken_over << " clouds_inserted=" << c.clouds_inserted;
   for (const auto& kv : c.skipped) out << " skipped_" << kv.first << '=' << kv.second;
   session_.withMapper([&out](Mapper& mapper) {
-    out << " readings: " << mapper.stats().readings.summary() << " voxels=" << mapper.tree().getNumLeafNodes()
+    out << " readings: " << mapper.stats().readings.summary();
+    if (mapper.stats().clouds_inserted) out << " cloud_points: " << mapper.stats().cloud_points.summary();
+    out << " voxels=" << mapper.tree().getNumLeafNodes()
         << " known_cells=" << mapper.slice().knownCells();
   });
   out << " insert_ms_per_scan=" << (c.scans_inserted ? 1000.0 * c.scan_insert_seconds / c.scans_inserted : 0.0);

@@ -3,21 +3,29 @@
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 #include <sensor_msgs/LaserScan.h>
+#include <sensor_msgs/PointCloud2.h>
 #include <tf2/buffer_core.h>
 #include <tf2/exceptions.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <tf2_msgs/TFMessage.h>
 
 #include "ros/laser_scan_conversion.h"
+#include "ros/point_cloud_conversion.h"
 
 namespace octo_slice_mapper {
 namespace tools {
+namespace {
 
-bool readBagScans(const std::string& path, const std::string& scan_topic, const std::string& fixed_frame,
-                  BagScans* out, std::string* error, const std::function<void(double)>& progress) {
+std::string absoluteTopic(const std::string& topic) { return topic.empty() || topic[0] == '/' ? topic : "/" + topic; }
+
+}  // namespace
+
+bool readBag(const std::string& path, const BagTopics& topics, const std::string& fixed_frame,
+             const BagHandlers& handlers, std::map<std::string, std::size_t>* skipped, std::string* error,
+             const std::function<void(double)>& progress) {
   try {
     rosbag::Bag bag(path, rosbag::bagmode::Read);
-    // Pass 1: all of the bag's tf, so a scan can use transforms recorded just after it.
+    // Pass 1: all of the bag's tf, so a message can use transforms recorded just after it.
     rosbag::View tf_view(bag, rosbag::TopicQuery(std::vector<std::string>{"/tf", "/tf_static", "tf", "tf_static"}));
     const ros::Duration span = tf_view.getEndTime() - tf_view.getBeginTime();
     tf2::BufferCore buffer(span + ros::Duration(10.0));
@@ -29,39 +37,70 @@ bool readBagScans(const std::string& path, const std::string& scan_topic, const 
         try {
           buffer.setTransform(t, "bag", is_static);
         } catch (const tf2::TransformException&) {
-          out->skipped["bad_tf"]++;
+          (*skipped)["bad_tf"]++;
         }
       }
     }
-    // Pass 2: the scans.
-    const std::string topic = scan_topic.empty() || scan_topic[0] == '/' ? scan_topic : "/" + scan_topic;
-    rosbag::View view(bag, rosbag::TopicQuery(std::vector<std::string>{topic, scan_topic}));
+    const auto poseOf = [&](const std_msgs::Header& header, Eigen::Isometry3d* pose) {
+      try {
+        *pose = tf2::transformToEigen(buffer.lookupTransform(fixed_frame, header.frame_id, header.stamp));
+        return true;
+      } catch (const tf2::TransformException&) {
+        return false;
+      }
+    };
+    // Pass 2: the sensors' messages, in the bag's order.
+    const std::string scan_topic = absoluteTopic(topics.scan), cloud_topic = absoluteTopic(topics.cloud);
+    std::vector<std::string> wanted;
+    for (const std::string& t : {topics.scan, scan_topic, topics.cloud, cloud_topic}) {
+      if (!t.empty()) wanted.push_back(t);
+    }
+    rosbag::View view(bag, rosbag::TopicQuery(wanted));
     const std::size_t total = view.size();
     std::size_t seen = 0;
     for (const rosbag::MessageInstance& m : view) {
       if (progress && seen++ % 100 == 0) progress(total ? double(seen) / total : 1.0);
-      const auto msg = m.instantiate<sensor_msgs::LaserScan>();
-      if (!msg) {
-        out->skipped["not_a_laser_scan"]++;
-        continue;
-      }
+      const std::string topic = absoluteTopic(m.getTopic());
       Eigen::Isometry3d pose;
-      try {
-        pose = tf2::transformToEigen(buffer.lookupTransform(fixed_frame, msg->header.frame_id, msg->header.stamp));
-      } catch (const tf2::TransformException&) {
-        out->skipped["no_transform"]++;
-        continue;
+      if (!scan_topic.empty() && topic == scan_topic) {
+        const auto msg = m.instantiate<sensor_msgs::LaserScan>();
+        if (!msg) {
+          (*skipped)["not_a_laser_scan"]++;
+          continue;
+        }
+        if (!poseOf(msg->header, &pose)) {
+          (*skipped)["no_transform"]++;
+          continue;
+        }
+        Scan scan;
+        const ros_adapter::ScanRejection rejection = ros_adapter::toCoreScan(*msg, pose, &scan);
+        if (rejection.rejected()) {
+          (*skipped)[rejection.key]++;
+          continue;
+        }
+        if (handlers.scan) handlers.scan(scan);
+      } else {
+        const auto msg = m.instantiate<sensor_msgs::PointCloud2>();
+        if (!msg) {
+          (*skipped)["cloud_not_a_point_cloud2"]++;
+          continue;
+        }
+        if (!poseOf(msg->header, &pose)) {
+          (*skipped)["cloud_no_transform"]++;
+          continue;
+        }
+        SensorCloud cloud;
+        const ros_adapter::ScanRejection rejection = ros_adapter::toCoreCloud(*msg, pose, &cloud);
+        if (rejection.rejected()) {
+          (*skipped)[rejection.key]++;
+          continue;
+        }
+        if (handlers.cloud) handlers.cloud(cloud);
       }
-      Scan scan;
-      const ros_adapter::ScanRejection rejection = ros_adapter::toCoreScan(*msg, pose, &scan);
-      if (rejection.rejected()) {
-        out->skipped[rejection.key]++;
-        continue;
-      }
-      out->scans.push_back(std::move(scan));
     }
-    if (view.size() == 0) {
-      *error = path + ": no messages on topic '" + scan_topic + "'";
+    if (total == 0) {
+      *error = path + ": no messages on topic '" + (topics.scan.empty() ? topics.cloud : topics.scan) + "'" +
+               (topics.scan.empty() || topics.cloud.empty() ? "" : " nor '" + topics.cloud + "'");
       return false;
     }
   } catch (const std::exception& e) {
@@ -69,6 +108,13 @@ bool readBagScans(const std::string& path, const std::string& scan_topic, const 
     return false;
   }
   return true;
+}
+
+bool readBagScans(const std::string& path, const std::string& scan_topic, const std::string& fixed_frame,
+                  BagScans* out, std::string* error, const std::function<void(double)>& progress) {
+  BagHandlers handlers;
+  handlers.scan = [out](const Scan& scan) { out->scans.push_back(scan); };
+  return readBag(path, BagTopics{scan_topic, ""}, fixed_frame, handlers, &out->skipped, error, progress);
 }
 
 }  // namespace tools

@@ -1,4 +1,6 @@
-// Scans from a rosbag, each placed with the bag's own tf (fixed frame <- laser at the scan's stamp).
+// Scans and clouds from a rosbag, each placed with the bag's own tf (fixed frame <- sensor at the
+// message's stamp), handed on one at a time in the bag's order (a depth camera's bag is gigabytes:
+// nothing is kept).
 #pragma once
 
 #include <functional>
@@ -11,12 +13,29 @@
 namespace octo_slice_mapper {
 namespace tools {
 
+struct BagTopics {
+  std::string scan;   // sensor_msgs/LaserScan; empty: none
+  std::string cloud;  // sensor_msgs/PointCloud2; empty: none
+};
+
+struct BagHandlers {
+  std::function<void(const Scan&)> scan;
+  std::function<void(const SensorCloud&)> cloud;
+};
+
+// False with a reason if the bag can't be read at all or holds nothing on the topics; messages
+// that are bad or cannot be placed are counted in `skipped` per reason (clouds' reasons start
+// with "cloud_").
+bool readBag(const std::string& path, const BagTopics& topics, const std::string& fixed_frame,
+             const BagHandlers& handlers, std::map<std::string, std::size_t>* skipped, std::string* error,
+             const std::function<void(double)>& progress = {});
+
 struct BagScans {
   std::vector<Scan> scans;
   std::map<std::string, std::size_t> skipped;  // whole scans dropped, per reason
 };
 
-// False with a reason if the bag can't be read at all; bad or unplaceable scans are counted.
+// The scans of one topic, kept (for the tests and small bags).
 bool readBagScans(const std::string& path, const std::string& scan_topic, const std::string& fixed_frame,
                   BagScans* out, std::string* error, const std::function<void(double)>& progress = {});
 

@@ -1,7 +1,10 @@
 // octo_slice_map: offline mapping of a recorded log (CARMEN .log/.clf, gzip or plain) or rosbag.
 //
 //   octo_slice_map LOG [options]
-//   octo_slice_map --bag FILE [--scan-topic scan] [--fixed-frame odom] [options]
+//   octo_slice_map --bag FILE [--scan-topic scan] [--cloud-topic TOPIC] [--fixed-frame odom] [options]
+//
+// --cloud-topic maps a bag's PointCloud2 messages (a depth camera's) into the same octree, in the
+// bag's order with the scans; --scan-topic "" maps the clouds alone.
 //
 // Writes PREFIX.{bt,ot,pgm,yaml,png} (and PREFIX_optimized.{bt,pgm,yaml,png} with --optimize) and
 // prints a one-line JSON summary on stdout. Progress goes to stderr when it is a terminal.
@@ -33,7 +36,7 @@ using Clock = std::chrono::steady_clock;
 namespace {
 
 struct Args {
-  std::string log, bag, scan_topic = "scan", fixed_frame = "odom", out;
+  std::string log, bag, scan_topic = "scan", cloud_topic, fixed_frame = "odom", out;
   bool optimize = false, warm_start = true;  // warm: measured better on both shared logs (issue 18)
   int holdout_every = 0;
   osm::MapperOptions mapper;
@@ -80,7 +83,8 @@ bool parse(int argc, char** argv, Args* a, int* code) {
                "(and PREFIX_optimized.* with --optimize) and prints a one-line JSON summary."};
   app.add_option("log", a->log, "CARMEN log (.log/.clf, plain or .gz): FLASER, RLASER, ROBOTLASER1 records");
   app.add_option("--bag", a->bag, "a rosbag instead of a log");
-  app.add_option("--scan-topic", a->scan_topic, "the bag's LaserScan topic")->capture_default_str();
+  app.add_option("--scan-topic", a->scan_topic, "the bag's LaserScan topic (\"\": none)")->capture_default_str();
+  app.add_option("--cloud-topic", a->cloud_topic, "the bag's PointCloud2 topic (a depth camera), mapped too");
   app.add_option("--fixed-frame", a->fixed_frame, "the bag's fixed frame")->capture_default_str();
   app.add_option("--out", a->out, "output prefix (default: the package's maps/<log name>)");
   app.add_option("--laser-z", a->carmen.laser_z, "height given to 2D log scans (m)")->capture_default_str();
@@ -174,7 +178,7 @@ int main(int argc, char** argv) {
 
   std::vector<osm::Scan> held_out;
   std::size_t scans_read = 0, beams = 0;
-  double insert_seconds = 0.0;
+  double insert_seconds = 0.0, cloud_seconds = 0.0;
   std::map<std::string, std::size_t> skipped_scans;
   std::size_t refused_reported = 0;
   // `where`: the log and line (or bag message) the scan came from, for the report of a refused one.
@@ -221,21 +225,31 @@ int main(int argc, char** argv) {
     end_error = reader.endError();
     if (!end_error.empty()) std::cerr << "octo_slice_map: " << end_error << "; keeping the map built so far\n";
   } else {
-    osm::tools::BagScans bag;
-    if (!osm::tools::readBagScans(args.bag, args.scan_topic, args.fixed_frame, &bag, &error,
-                                  [&](double f) { bar.update("reading bag", f); })) {
+    osm::tools::BagHandlers handlers;
+    std::size_t bag_scans = 0;
+    handlers.scan = [&](const osm::Scan& scan) { consume(scan, args.bag + ": scan " + std::to_string(bag_scans++)); };
+    handlers.cloud = [&](const osm::SensorCloud& cloud) {
+      const auto t0 = Clock::now();
+      const osm::InsertResult result = session->insert(cloud);
+      cloud_seconds += std::chrono::duration<double>(Clock::now() - t0).count();
+      if (!result.ok()) {
+        skipped_scans["cloud_invalid"]++;
+        if (++refused_reported <= 20) std::cerr << "octo_slice_map: " << args.bag << ": cloud skipped: " << result.error << "\n";
+      }
+    };
+    if (args.scan_topic.empty() && args.cloud_topic.empty()) {
+      std::cerr << "octo_slice_map: --scan-topic \"\" needs a --cloud-topic\n";
+      return 2;
+    }
+    if (!osm::tools::readBag(args.bag, {args.scan_topic, args.cloud_topic}, args.fixed_frame, handlers, &skipped_scans,
+                             &error, [&](double f) { bar.update("mapping bag", f); })) {
       std::cerr << "octo_slice_map: " << error << "\n";
       return 1;
-    }
-    skipped_scans = bag.skipped;
-    for (std::size_t k = 0; k < bag.scans.size(); ++k) {
-      consume(bag.scans[k], args.bag + ": scan " + std::to_string(k));
-      bar.update("mapping", double(k + 1) / bag.scans.size());
     }
     bar.finish();
   }
   osm::Mapper& mapper = session->mapperUnlocked();  // no other thread here
-  if (mapper.stats().scans_inserted == 0) {
+  if (mapper.stats().scans_inserted == 0 && mapper.stats().clouds_inserted == 0) {
     std::cerr << "octo_slice_map: no scan could be inserted from " << source << "\n";
     return 1;
   }
@@ -277,7 +291,17 @@ int main(int argc, char** argv) {
        << ", \"resolution\": " << mapper.options().resolution << ", \"voxels\": " << mapper.tree().getNumLeafNodes()
        << ", \"known_cells\": " << mapper.slice().knownCells()
        << ", \"memory\": " << jsonMemory(mapper)
-       << ", \"insert_ms_per_scan\": " << 1000.0 * insert_seconds / stats.scans_inserted
+       << ", \"insert_ms_per_scan\": " << (stats.scans_inserted ? 1000.0 * insert_seconds / stats.scans_inserted : 0.0);
+  if (!args.cloud_topic.empty()) {
+    json << ", \"clouds\": " << stats.clouds_inserted << ", \"ms_per_cloud\": "
+         << (stats.clouds_inserted ? 1000.0 * cloud_seconds / stats.clouds_inserted : 0.0) << ", \"cloud_points\": {";
+    for (int k = 0; k < osm::kReadingKindCount; ++k) {
+      json << (k ? ", " : "") << '"' << osm::readingKindName(static_cast<osm::ReadingKind>(k))
+           << "\": " << stats.cloud_points.count[k];
+    }
+    json << "}";
+  }
+  json
        << ", \"flush_ms\": " << flush_ms << ", \"snapshot_ms\": " << snapshot_ms
        << ", \"snapshot_leaves\": " << snapshot_leaves
        << ", \"scan_store_mb\": " << mapper.scanStore().memoryBytes() / 1e6;

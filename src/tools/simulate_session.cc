@@ -1,10 +1,14 @@
 // simulate_session: writes the deterministic simulated TurtleBot run as a rosbag, plus the
 // ground-truth map, for the demo and the tests.
 //
-//   simulate_session --bag FILE.bag --truth PREFIX [--seed N] [--real-robot]
+//   simulate_session --bag FILE.bag --truth PREFIX [--seed N] [--real-robot] [--no-camera]
 //
 // Topics: /scan (LaserScan, frame "laser"), /tf (odom -> base_footprint -> base_link),
-// /tf_static (base_link -> laser: x 0.10, z 0.26), /odom (nav_msgs/Odometry).
+// /tf_static (base_link -> laser: x 0.10, z 0.26; base_link -> camera_link ->
+// camera_depth_optical_frame), /odom (nav_msgs/Odometry), /camera/depth/points (PointCloud2,
+// organized, NaN where the camera sees nothing; sim::CameraMount: 160 x 120 at 2 Hz).
+// Truth: PREFIX.{pgm,yaml} for the lidar's plane, PREFIX_nav.{pgm,yaml} for the navigation band
+// (kNavMinZ..kNavMaxZ: what the robot can hit, table top and overhang included).
 //
 // --real-robot: the traits of a real TurtleBot's recording (issue 21): a REP 117 driver (+inf no
 // return, -inf too close, NaN), the lidar mounted yawed 20 deg and 3 cm to the side, odometry
@@ -30,8 +34,10 @@
 #include <set>
 
 #include "octo_slice_mapper/map_io.h"
+#include "octo_slice_mapper/sim/depth_camera.h"
 #include "octo_slice_mapper/sim/session.h"
 #include "planar_transform.h"
+#include "ros/point_cloud_conversion.h"
 
 using octo_slice_mapper::sim::Pose2D;
 using octo_slice_mapper::tools::planarTransform;
@@ -39,9 +45,20 @@ using octo_slice_mapper::tools::planarTransform;
 namespace {
 
 const double kStartTime = 1000.0;  // bag time of t = 0 (ROS time 0 means "unset")
+// The navigation band: floor + margin to above the robot (a TurtleBot 2 with its camera).
+const double kNavMinZ = 0.05, kNavMaxZ = 0.80;
+
+geometry_msgs::TransformStamped staticTransform(const Eigen::Isometry3d& pose, const std::string& parent,
+                                                const std::string& child, const ros::Time& stamp) {
+  geometry_msgs::TransformStamped t = tf2::eigenToTransform(pose);
+  t.header.frame_id = parent;
+  t.header.stamp = stamp;
+  t.child_frame_id = child;
+  return t;
+}
 
 void usage() {
-  std::cerr << "usage: simulate_session --bag FILE.bag --truth PREFIX [--seed N] [--real-robot]\n";
+  std::cerr << "usage: simulate_session --bag FILE.bag --truth PREFIX [--seed N] [--real-robot] [--no-camera]\n";
 }
 
 }  // namespace
@@ -49,7 +66,7 @@ void usage() {
 int main(int argc, char** argv) {
   std::string bag_path, truth_prefix;
   auto spec = octo_slice_mapper::sim::SessionSpec::officeTour();
-  bool real_robot = false;
+  bool real_robot = false, camera = true;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "--real-robot") {
@@ -57,6 +74,9 @@ int main(int argc, char** argv) {
       spec = octo_slice_mapper::sim::SessionSpec::realRobotTour();
       spec.seed = seed;
       real_robot = true;
+      camera = false;  // the real robot's recording is its lidar's
+    } else if (arg == "--no-camera") {
+      camera = false;
     } else if (arg == "--bag" && i + 1 < argc) bag_path = argv[++i];
     else if (arg == "--truth" && i + 1 < argc) truth_prefix = argv[++i];
     else if (arg == "--seed" && i + 1 < argc) spec.seed = static_cast<std::uint32_t>(std::stoul(argv[++i]));
@@ -74,7 +94,8 @@ int main(int argc, char** argv) {
 
   std::string error;
   const auto truth = plan.groundTruth(0.05);
-  if (!octo_slice_mapper::savePgmYaml(truth, truth_prefix, &error)) {
+  if (!octo_slice_mapper::savePgmYaml(truth, truth_prefix, &error) ||
+      !octo_slice_mapper::savePgmYaml(plan.groundTruthBand(0.05, kNavMinZ, kNavMaxZ), truth_prefix + "_nav", &error)) {
     std::cerr << "simulate_session: " << error << "\n";
     return 1;
   }
@@ -86,6 +107,13 @@ int main(int argc, char** argv) {
     tf2_msgs::TFMessage statics;
     statics.transforms.push_back(planarTransform("base_link", "laser", t0, spec.lidar.mount_x, spec.lidar.mount_y,
                                                  spec.lidar.mount_z, spec.lidar.mount_yaw));
+    const octo_slice_mapper::sim::CameraMount mount;
+    if (camera) {
+      statics.transforms.push_back(
+          staticTransform(octo_slice_mapper::sim::cameraLinkOnBase(mount), "base_link", "camera_link", t0));
+      statics.transforms.push_back(staticTransform(octo_slice_mapper::sim::opticalOnCameraLink(), "camera_link",
+                                                   "camera_depth_optical_frame", t0));
+    }
     auto latched = boost::make_shared<ros::M_string>();
     (*latched)["latching"] = "1";
     (*latched)["callerid"] = "/simulate_session";
@@ -162,13 +190,34 @@ int main(int argc, char** argv) {
       bag.write("/scan", ros::Time(kStartTime + arrival), msg);
       ++count;
     }
+    // The depth camera: organized frames of the building in 3D, from the robot's true pose.
+    std::size_t frames = 0;
+    if (camera) {
+      const octo_slice_mapper::sim::BoxScene scene = octo_slice_mapper::sim::BoxScene::of(plan);
+      const Eigen::Isometry3d optical_on_base =
+          octo_slice_mapper::sim::cameraLinkOnBase(mount) * octo_slice_mapper::sim::opticalOnCameraLink();
+      std::mt19937 camera_rng(spec.seed + 1);
+      for (double t = 0.5 / mount.rate_hz; t <= session.duration(); t += 1.0 / mount.rate_hz, ++frames) {
+        const Pose2D p = session.poseAt(t);
+        Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
+        base.translate(Eigen::Vector3d(p.x, p.y, 0.0));
+        base.rotate(Eigen::AngleAxisd(p.yaw, Eigen::Vector3d::UnitZ()));
+        const std::vector<Eigen::Vector3f> points =
+            octo_slice_mapper::sim::depthFrame(scene, base * optical_on_base, mount.spec, &camera_rng);
+        sensor_msgs::PointCloud2 cloud = octo_slice_mapper::ros_adapter::organizedCloud(
+            points, mount.spec.width, mount.spec.height, "camera_depth_optical_frame");
+        cloud.header.stamp = ros::Time(kStartTime + t);
+        cloud.header.seq = static_cast<std::uint32_t>(frames);
+        bag.write("/camera/depth/points", cloud.header.stamp, cloud);
+      }
+    }
     bag.close();
     if (std::rename(tmp_bag.c_str(), bag_path.c_str()) != 0) {
       std::cerr << "simulate_session: cannot rename " << tmp_bag << ": " << std::strerror(errno) << "\n";
       return 1;
     }
-    std::cout << "simulate_session: wrote " << bag_path << " (" << count << " scans, " << session.duration()
-              << " s) and " << truth_prefix << ".{pgm,yaml}\n";
+    std::cout << "simulate_session: wrote " << bag_path << " (" << count << " scans, " << frames << " depth frames, "
+              << session.duration() << " s) and " << truth_prefix << "{,_nav}.{pgm,yaml}\n";
     if (real_robot) {
       std::printf("{\"scans\": %zu, \"scans_before_tf\": %zu, \"scans_out_of_order\": %zu, \"plus_inf\": %zu, "
                   "\"minus_inf\": %zu, \"nan\": %zu, \"beams_per_scan\": %d}\n",

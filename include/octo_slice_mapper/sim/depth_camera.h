@@ -9,6 +9,8 @@
 #include <random>
 #include <vector>
 
+#include "octo_slice_mapper/sim/floor_plan.h"
+
 namespace octo_slice_mapper {
 namespace sim {
 
@@ -23,6 +25,9 @@ struct BoxScene {
   // 6 x 5 x 2.5 m, corner at the origin: table at (2.5..3.7, 1.5..2.3), shelf against the
   // north wall with its overhang at 0.45..0.60 m, a step 0.08 m high near the door.
   static BoxScene officeRoom();
+  // A floor plan in 3D: its bounds from the floor to kWallHeight as the room, each wall (all of
+  // them axis-aligned) a solid from its bottom to its top. People are not in it.
+  static BoxScene of(const FloorPlan& plan);
   // Distance along unit `dir` from `origin` (inside the room) to the first surface; +inf if none.
   double castRay(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir) const;
   // Whether a point lies inside a solid (for ground-truth footprints).
@@ -37,6 +42,25 @@ struct DepthCameraSpec {
   double min_range = 0.5, max_range = 4.5;                 // of the depth (z in the optical frame), m
   bool noise = true;
 };
+
+// The TurtleBot 2's depth camera on its base_link: 0.10 m forward, 0.30 m up, pitched down.
+struct CameraMount {
+  double x = 0.10, z = 0.30;  // m
+  double pitch = 0.10;        // rad, down: the table top at 0.72 m is in view from 1.5 m on
+  double rate_hz = 2.0;
+  // The simulator's bag binned to 160 x 120: at 640 x 480 and 30 Hz the office tour would be a
+  // 9 GB bag. The benchmark and the tests use full frames.
+  DepthCameraSpec spec = binned(4);
+  static DepthCameraSpec binned(int factor) {
+    DepthCameraSpec s;
+    s.width /= factor;
+    s.height /= factor;
+    return s;
+  }
+};
+// base_link -> camera_link (x forward, z up, pitched), and camera_link -> its optical frame (REP 103).
+Eigen::Isometry3d cameraLinkOnBase(const CameraMount& mount);
+Eigen::Isometry3d opticalOnCameraLink();
 
 // One organized frame in the camera's optical frame (REP 103: z forward, x right, y down), row by
 // row; NaN where the camera gets no depth (nothing within range).

@@ -49,6 +49,20 @@ BoxScene BoxScene::officeRoom() {
   return s;
 }
 
+BoxScene BoxScene::of(const FloorPlan& plan) {
+  BoxScene s;
+  s.room = box(plan.min_corner.x(), plan.min_corner.y(), 0.0, plan.max_corner.x(), plan.max_corner.y(), kWallHeight);
+  for (const Wall& w : plan.walls) {
+    Eigen::Vector2d lo = w.a, hi = w.a;
+    for (const Segment& edge : w.outline()) {
+      lo = lo.cwiseMin(edge.a).cwiseMin(edge.b);
+      hi = hi.cwiseMax(edge.a).cwiseMax(edge.b);
+    }
+    s.solids.push_back(box(lo.x(), lo.y(), w.bottom, hi.x(), hi.y(), w.top));
+  }
+  return s;
+}
+
 double BoxScene::castRay(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir) const {
   double entry, exit;
   slabs(room, origin, dir, &entry, &exit);
@@ -89,6 +103,15 @@ std::vector<Eigen::Vector3f> depthFrame(const BoxScene& scene, const Eigen::Isom
   }
   return points;
 }
+
+Eigen::Isometry3d cameraLinkOnBase(const CameraMount& mount) {
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translate(Eigen::Vector3d(mount.x, 0.0, mount.z));
+  pose.rotate(Eigen::AngleAxisd(mount.pitch, Eigen::Vector3d::UnitY()));
+  return pose;
+}
+
+Eigen::Isometry3d opticalOnCameraLink() { return opticalPose(Eigen::Vector3d::Zero(), 0.0, 0.0); }
 
 Eigen::Isometry3d opticalPose(const Eigen::Vector3d& position, double yaw, double pitch) {
   // Body axes (x forward, y left, z up) to optical (z forward, x right, y down).

@@ -28,10 +28,11 @@ double rayDisc(const Eigen::Vector2d& o, const Eigen::Vector2d& d, const Eigen::
   return s >= 0.0 ? s : std::numeric_limits<double>::infinity();
 }
 
-// A solid block from (x0, y0) to (x1, y1) as one wide "wall".
-void addBox(std::vector<Wall>* walls, double x0, double y0, double x1, double y1) {
+// A solid block from (x0, y0) to (x1, y1) as one wide "wall", from `bottom` to `top`.
+void addBox(std::vector<Wall>* walls, double x0, double y0, double x1, double y1, double bottom = 0.0,
+            double top = kWallHeight) {
   const double yc = 0.5 * (y0 + y1);
-  walls->push_back({{x0, yc}, {x1, yc}, y1 - y0});
+  walls->push_back({{x0, yc}, {x1, yc}, y1 - y0, bottom, top});
 }
 
 }  // namespace
@@ -83,6 +84,17 @@ FloorPlan FloorPlan::office() {
   addBox(&w, 3.5, 5.0, 4.5, 6.0);
   addBox(&w, 10.8, 5.0, 11.2, 5.4);
   addBox(&w, 8.2, -3.6, 9.4, -3.0);
+  // Room B's 3D furniture, along the tour's path there (the camera looks at each on the way). The
+  // table: a 3 cm top on four 5 cm legs; the lidar sees the legs only.
+  addBox(&w, 9.0, 5.6, 10.2, 6.4, 0.69, 0.72);
+  for (double x : {9.05, 10.1}) {
+    for (double y : {5.65, 6.3}) addBox(&w, x, y, x + 0.05, y + 0.05, 0.0, 0.69);
+  }
+  // A cabinet against the north wall, its top board reaching 0.35 m further out at 0.45-0.60 m.
+  addBox(&w, 11.8, 7.65, 13.2, 7.95, 0.0, 1.8);
+  addBox(&w, 11.8, 7.3, 13.2, 7.65, 0.45, 0.60);
+  // A step (a low platform) beside the path into room B.
+  addBox(&w, 9.9, 2.9, 10.9, 3.5, 0.0, 0.08);
   plan.doors = {{"room_a", {2.0, 2}, {2.9, 2}, true},
                 {"room_b", {9.0, 2}, {9.9, 2}, true},
                 {"room_c", {6.0, 0}, {6.9, 0}, true}};
@@ -113,6 +125,7 @@ FloorPlan FloorPlan::doorCorridor() {
 double FloorPlan::castRay(const Eigen::Vector2d& origin, const Eigen::Vector2d& dir, double t, bool with_people) const {
   double best = std::numeric_limits<double>::infinity();
   for (const Wall& w : walls) {
+    if (!w.crosses(lidar_plane_z, lidar_plane_z)) continue;
     for (const Segment& s : w.outline()) best = std::min(best, raySegment(origin, dir, s));
   }
   if (with_people) {
@@ -122,6 +135,10 @@ double FloorPlan::castRay(const Eigen::Vector2d& origin, const Eigen::Vector2d& 
 }
 
 GridImage FloorPlan::groundTruth(double resolution) const {
+  return groundTruthBand(resolution, lidar_plane_z, lidar_plane_z);
+}
+
+GridImage FloorPlan::groundTruthBand(double resolution, double min_z, double max_z) const {
   GridImage grid;
   grid.resolution = resolution;
   grid.origin_x = min_corner.x();
@@ -133,7 +150,7 @@ GridImage FloorPlan::groundTruth(double resolution) const {
     for (int i = 0; i < grid.width; ++i) {
       const Eigen::Vector2d centre(grid.origin_x + (i + 0.5) * resolution, grid.origin_y + (j + 0.5) * resolution);
       for (const Wall& w : walls) {
-        if (w.contains(centre)) {
+        if (w.crosses(min_z, max_z) && w.contains(centre)) {
           grid.cells[std::size_t(j) * grid.width + i] = 100;
           break;
         }

@@ -48,6 +48,7 @@ SessionSpec SessionSpec::corridorPass() {
 }
 
 SimulatedSession::SimulatedSession(const FloorPlan& plan, const SessionSpec& spec) : plan_(plan), spec_(spec) {
+  plan_.lidar_plane_z = spec.lidar.mount_z;  // the 2D world the lidar sees is its plane's
   if (spec.waypoints.size() < 2) return;
   std::vector<Motion> motions;
   double yaw = std::atan2(spec.waypoints[1].y() - spec.waypoints[0].y(), spec.waypoints[1].x() - spec.waypoints[0].x());
