@@ -8,6 +8,7 @@
 #include "octo_slice_mapper/map_evaluation.h"
 #include "octo_slice_mapper/map_io.h"
 #include "octo_slice_mapper/mapper.h"
+#include "octo_slice_mapper/sim/depth_camera.h"
 #include "octo_slice_mapper/sim/session.h"
 
 using namespace octo_slice_mapper;
@@ -55,8 +56,7 @@ TEST_F(OptimizedMapTest, OptimizedGridGoesIntoTheBandAndIntoTheBtFile) {
   std::string error;
   const std::size_t leaves_before = mapper_->tree().getNumLeafNodes();
   const GridImage incremental = gridImageOf(mapper_->slice());
-  ASSERT_TRUE(saveOptimizedSet(mapper_->tree(), mapper_->slice().bandMinKey(), mapper_->slice().bandMaxKey(),
-                               optimized.grid, incremental, dir + "/m", &written, &error))
+  ASSERT_TRUE(saveOptimizedSet(mapper_->tree(), mapper_->passBand(), optimized.grid, incremental, dir + "/m", &written, &error))
       << error;
   EXPECT_EQ(written, (std::vector<std::string>{dir + "/m_optimized.bt", dir + "/m_optimized.pgm",
                                                dir + "/m_optimized.yaml", dir + "/m_optimized.png"}));
@@ -109,7 +109,7 @@ TEST_F(OptimizedMapTest, ApplyingTheResultUpdatesTreeAndSlice) {
   const sim::SimulatedSession session(sim::FloorPlan::doorCorridor(), sim::SessionSpec::corridorPass());
   for (const Scan& s : session.allScans()) ASSERT_TRUE(mapper.insert(s).ok());
   const OptimizedMap optimized = mapper.optimize(/*warm_start=*/true);
-  mapper.applyOptimized(optimized.grid);
+  mapper.applyOptimized(optimized.grid, mapper.passBand());
   // The slice now shows the optimized state (at the clamping bounds) wherever the grid knows a cell.
   SliceGrid rebuilt(mapper.tree(), mapper.options().slice);
   rebuilt.rebuild();
@@ -146,6 +146,76 @@ TEST_F(OptimizedMapTest, ApplyingTheResultUpdatesTreeAndSlice) {
     ASSERT_NE(node, nullptr);
     ASSERT_EQ(node->getLogOdds(), it->getLogOdds());
   }
+}
+
+// Issue 22: with the depth camera the band is the navigation band, and a table top above the
+// lidar's plane is the camera's evidence. The global pass explains the lidar's beams, which pass
+// under the table: its result must neither erase the table top from the octree nor hide it.
+TEST(OptimizedMapWithCameraTest, ObstaclesAboveTheLidarPlaneSurviveThePass) {
+  MapperOptions options;
+  options.slice.min_z = 0.05;
+  options.slice.max_z = 0.80;
+  Mapper mapper(options);
+  const sim::FloorPlan plan = sim::FloorPlan::office();
+  const sim::SimulatedSession session(plan, sim::SessionSpec::officeTour());
+  const sim::BoxScene scene = sim::BoxScene::of(plan);
+  const sim::CameraMount mount;
+  const Eigen::Isometry3d optical_on_base = sim::cameraLinkOnBase(mount) * sim::opticalOnCameraLink();
+  std::mt19937 rng(3);
+  double next_frame = 0.0;
+  for (const Scan& s : session.allScans()) {
+    ASSERT_TRUE(mapper.insert(s).ok());
+    if (s.stamp < next_frame) continue;
+    next_frame = s.stamp + 1.0 / mount.rate_hz;
+    const sim::Pose2D p = session.poseAt(s.stamp);
+    Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
+    base.translate(Eigen::Vector3d(p.x, p.y, 0.0));
+    base.rotate(Eigen::AngleAxisd(p.yaw, Eigen::Vector3d::UnitZ()));
+    const Eigen::Isometry3d pose = base * optical_on_base;
+    std::vector<Eigen::Vector3f> points = sim::depthFrame(scene, pose, mount.spec, &rng);
+    for (Eigen::Vector3f& q : points) q = (pose.cast<float>() * q).eval();
+    ASSERT_TRUE(mapper.insertPoints(pose.translation(), points).ok());
+  }
+  // The table top's centre (9.6, 6.0): occupied in the incremental slice and the octree at 0.70 m.
+  const Eigen::Vector3d top(9.6, 6.0, 0.705);
+  const auto occupiedAt = [&](const Eigen::Vector3d& q) {
+    const octomap::OcTreeNode* n = mapper.tree().search(q.x(), q.y(), q.z());
+    return n && mapper.tree().isNodeOccupied(n);
+  };
+  ASSERT_GT(mapper.slice().valueAt(top.x(), top.y()), 65);
+  ASSERT_TRUE(occupiedAt(top));
+  const PassBand band = mapper.passBand();
+  EXPECT_EQ(band.scans_lo, band.scans_hi) << "a level lidar's scans are taken in one layer";
+  EXPECT_FALSE(obstaclesBesidePass(mapper.tree(), band).empty());
+
+  const OptimizedMap optimized = mapper.optimize(/*warm_start=*/true);
+  int i = int(std::floor((top.x() - optimized.grid.origin_x) / 0.05)), j = int(std::floor((top.y() - optimized.grid.origin_y) / 0.05));
+  ASSERT_LT(optimized.grid.at(i, j), 50) << "the lidar's beams pass under the table: the pass alone calls it free";
+
+  char tmpl[] = "/tmp/osm_optimized_camera_XXXXXX";
+  const std::string dir = ::mkdtemp(tmpl);
+  std::vector<std::string> written;
+  std::string error;
+  ASSERT_TRUE(saveOptimizedSet(mapper.tree(), band, optimized.grid, gridImageOf(mapper.slice()), dir + "/m", &written,
+                               &error))
+      << error;
+  GridImage saved;
+  ASSERT_TRUE(loadPgmYaml(dir + "/m_optimized.yaml", &saved, &error)) << error;
+  i = int(std::floor((top.x() - saved.origin_x) / saved.resolution)), j = int(std::floor((top.y() - saved.origin_y) / saved.resolution));
+  EXPECT_GT(saved.at(i, j), 65) << "the saved optimized map shows the table top";
+  octomap::OcTree bt(0.05);
+  ASSERT_TRUE(bt.readBinary(dir + "/m_optimized.bt"));
+  const octomap::OcTreeNode* in_bt = bt.search(top.x(), top.y(), top.z());
+  EXPECT_TRUE(in_bt && bt.isNodeOccupied(in_bt)) << "the .bt with the pass's result kept the table top";
+  std::system(("rm -rf " + dir).c_str());
+
+  mapper.applyOptimized(optimized.grid, band);
+  EXPECT_TRUE(occupiedAt(top)) << "the pass's result written into the octree kept the table top";
+  EXPECT_GT(mapper.slice().valueAt(top.x(), top.y()), 65);
+  // Under the table, in the lidar's layer, the pass's free result went in.
+  const octomap::OcTreeNode* under = mapper.tree().search(top.x(), top.y(), 0.26);
+  ASSERT_NE(under, nullptr);
+  EXPECT_FALSE(mapper.tree().isNodeOccupied(under));
 }
 
 }  // namespace

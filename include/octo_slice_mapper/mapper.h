@@ -87,8 +87,10 @@ class Mapper {
     std::size_t voxels = 0, scans = 0;
   };
   Cleared clearBox(const Eigen::Vector3d& min, const Eigen::Vector3d& max);
-  // Writes an optimized grid into the octree's slice-band voxels and refreshes the slice.
-  void applyOptimized(const GridImage& grid);
+  // Writes an optimized grid into the octree's slice-band voxels (but the obstacles beside the
+  // pass, see PassBand) and refreshes the slice. `band`: passBand(), found once for all strips.
+  void applyOptimized(const GridImage& grid, const PassBand& band);
+  PassBand passBand() const;
   // Brings the octree up to date and lends it (see MapSnapshot) until endSnapshot(). Reading the
   // lent octree from another thread is safe while this thread keeps inserting; reset(), load()
   // and applyOptimized() are refused meanwhile.

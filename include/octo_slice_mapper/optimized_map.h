@@ -10,6 +10,7 @@
 
 #include "octo_slice_mapper/global_optimizer.h"
 #include "octo_slice_mapper/map_io.h"
+#include "octo_slice_mapper/scan_store.h"
 
 namespace octo_slice_mapper {
 
@@ -36,17 +37,36 @@ OptimizedMap optimizeScans(const std::vector<StoredScan>& scans, const GlobalOpt
                            const ProgressFn& progress = {}, const RevisitFrom* revisit = nullptr,
                            std::unique_ptr<GlobalOptimizer>* kept = nullptr);
 
-// Sets the slice-band voxels under every known cell of `grid` to the tree's clamping bound
-// (occupied -> max, free -> min); unknown cells are left alone. `grid` must be aligned with the
-// tree's voxel columns (GlobalOptimizer and SliceGrid grids are). Returns the keys written.
-// The band is the voxel layers with z keys band_lo..band_hi (SliceGrid::bandMinKey/MaxKey).
-std::vector<octomap::OcTreeKey> writeGridIntoBand(const GridImage& grid, unsigned band_lo, unsigned band_hi,
-                                                  octomap::OcTree* tree);
+// The slice band's voxel layers (z keys band_lo..band_hi, SliceGrid::bandMinKey/MaxKey) and, of
+// them, the layers the global pass speaks for: those its scans were taken in (a 2D lidar's one or
+// two). An obstacle in a band voxel outside those (a depth camera's table top or shelf overhang
+// above the lidar's plane) is another sensor's evidence, which the pass cannot see: its result
+// neither overwrites that voxel nor hides it (issue 22: a save with the global pass erased the
+// table top the camera had mapped).
+struct PassBand {
+  unsigned band_lo = 0, band_hi = 0;
+  unsigned scans_lo = 1, scans_hi = 0;  // none: the pass speaks for the whole band
+  static PassBand of(const std::vector<StoredScan>& scans, const octomap::OcTree& tree, unsigned band_lo,
+                     unsigned band_hi);
+  bool passSpeaksFor(unsigned kz) const { return scans_lo > scans_hi || (kz >= scans_lo && kz <= scans_hi); }
+};
+
+// The occupied band voxels in layers the pass does not speak for (in the columns of `within` if
+// given), in the tree's leaf order.
+std::vector<octomap::OcTreeKey> obstaclesBesidePass(const octomap::OcTree& tree, const PassBand& band,
+                                                    const GridImage* within = nullptr);
+
+// Sets the band's voxels under every known cell of `grid` to the tree's clamping bound (occupied
+// -> max, free -> min), except obstaclesBesidePass; unknown cells are left alone. `grid` must be
+// aligned with the tree's voxel columns (GlobalOptimizer and SliceGrid grids are). Returns the
+// keys written.
+std::vector<octomap::OcTreeKey> writeGridIntoBand(const GridImage& grid, const PassBand& band, octomap::OcTree* tree);
 
 // Writes PREFIX_optimized.{bt,pgm,yaml,png}: the .bt is a copy of `tree` with `grid` written into
-// its band (the live tree is not changed); the 2D files show `grid` itself, drawn in the frame of
-// `incremental` (the incremental map saved beside it), so that the two overlay cell for cell.
-bool saveOptimizedSet(const octomap::OcTree& tree, unsigned band_lo, unsigned band_hi, const GridImage& grid,
+// its band (the live tree is not changed); the 2D files show `grid` itself with the obstacles
+// beside the pass occupied, drawn in the frame of `incremental` (the incremental map saved beside
+// it), so that the two overlay cell for cell.
+bool saveOptimizedSet(const octomap::OcTree& tree, const PassBand& band, const GridImage& grid,
                       const GridImage& incremental, const std::string& prefix, std::vector<std::string>* written,
                       std::string* error);
 

@@ -71,6 +71,10 @@ InsertResult Mapper::record(InsertResult result, bool cloud) {
   return result;
 }
 
+PassBand Mapper::passBand() const {
+  return PassBand::of(store_.scans(), *tree_, slice_->bandMinKey(), slice_->bandMaxKey());
+}
+
 void Mapper::reset() {
   if (lent_) throw std::logic_error("mapper: reset while the octree is lent");
   adopt(std::make_unique<octomap::OcTree>(options_.resolution));
@@ -278,10 +282,10 @@ Mapper::Cleared Mapper::clearBox(const Eigen::Vector3d& min, const Eigen::Vector
   return cleared;
 }
 
-void Mapper::applyOptimized(const GridImage& grid) {
+void Mapper::applyOptimized(const GridImage& grid, const PassBand& band) {
   if (lent_) throw std::logic_error("mapper: applyOptimized while the octree is lent");
   inserter_->flush();
-  const std::vector<octomap::OcTreeKey> keys = writeGridIntoBand(grid, slice_->bandMinKey(), slice_->bandMaxKey(), tree_.get());
+  const std::vector<octomap::OcTreeKey> keys = writeGridIntoBand(grid, band, tree_.get());
   KeyBox box;
   for (const octomap::OcTreeKey& k : keys) {
     inserter_->forgetCached(k);  // it holds the values from before

@@ -78,7 +78,8 @@ SaveOutcome MappingSession::save(const std::string& prefix, bool with_global_pas
     } else if (out.ok && with_global_pass) {
       out.optimized = optimizeScans(snapshot.scans, pass_options, resolution,
                                     options_.warm_start ? &snapshot.slice : nullptr, progress);
-      out.ok = saveOptimizedSet(*snapshot.tree, snapshot.band_lo, snapshot.band_hi, out.optimized->grid,
+      const PassBand band = PassBand::of(snapshot.scans, *snapshot.tree, snapshot.band_lo, snapshot.band_hi);
+      out.ok = saveOptimizedSet(*snapshot.tree, band, out.optimized->grid,
                                 snapshot.slice, prefix, &out.files, &out.error);
     }
   }
@@ -116,6 +117,11 @@ std::optional<OptimizedMap> MappingSession::optimize(bool warm_start, const Prog
 
 void MappingSession::applyOptimized(const GridImage& grid) {
   if (!options_.write_optimized_into_map) return;
+  PassBand band;
+  {
+    Lock lock(this);
+    band = mapper_.passBand();
+  }
   const int rows = std::max(1, 4096 / std::max(1, grid.width));
   for (int j0 = 0; j0 < grid.height; j0 += rows) {
     GridImage strip;  // not a copy of `grid`: that would copy all its cells once per strip
@@ -127,7 +133,7 @@ void MappingSession::applyOptimized(const GridImage& grid) {
     strip.cells.assign(grid.cells.begin() + std::size_t(j0) * grid.width,
                        grid.cells.begin() + std::size_t(j0 + strip.height) * grid.width);
     Lock lock(this);
-    mapper_.applyOptimized(strip);
+    mapper_.applyOptimized(strip, band);
     changes_++;
   }
 }

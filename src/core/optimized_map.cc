@@ -1,12 +1,21 @@
 #include "octo_slice_mapper/optimized_map.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 
 #include "octo_slice_mapper/key_box.h"
 #include "octo_slice_mapper/map_io.h"
 #include "octo_slice_mapper/octree_batch_update.h"
 
 namespace octo_slice_mapper {
+namespace {
+struct KeyLess {
+  bool operator()(const octomap::OcTreeKey& a, const octomap::OcTreeKey& b) const {
+    return a[2] != b[2] ? a[2] < b[2] : a[1] != b[1] ? a[1] < b[1] : a[0] < b[0];
+  }
+};
+}  // namespace
 
 OptimizedMap optimizeScans(const std::vector<StoredScan>& scans, const GlobalOptimizerOptions& options,
                            double resolution, const GridImage* warm_start, const ProgressFn& progress,
@@ -36,8 +45,59 @@ OptimizedMap optimizeScans(const std::vector<StoredScan>& scans, const GlobalOpt
   return out;
 }
 
-std::vector<octomap::OcTreeKey> writeGridIntoBand(const GridImage& grid, unsigned band_lo, unsigned band_hi,
-                                                  octomap::OcTree* tree) {
+PassBand PassBand::of(const std::vector<StoredScan>& scans, const octomap::OcTree& tree, unsigned band_lo,
+                      unsigned band_hi) {
+  PassBand band;
+  band.band_lo = band_lo;
+  band.band_hi = band_hi;
+  bool any = false;
+  for (const StoredScan& s : scans) {
+    octomap::OcTreeKey key;
+    if (!coordToKeySafe(tree, s.origin.x(), s.origin.y(), s.origin.z(), &key)) continue;
+    band.scans_lo = any ? std::min<unsigned>(band.scans_lo, key[2]) : key[2];
+    band.scans_hi = any ? std::max<unsigned>(band.scans_hi, key[2]) : key[2];
+    any = true;
+  }
+  return band;
+}
+
+std::vector<octomap::OcTreeKey> obstaclesBesidePass(const octomap::OcTree& tree, const PassBand& band,
+                                                    const GridImage* within) {
+  std::vector<octomap::OcTreeKey> keys;
+  if (band.scans_lo > band.scans_hi) return keys;
+  const unsigned depth = tree.getTreeDepth();
+  // The band's leaves only (a slab of the tree, or of the grid's columns): a lidar-only map has
+  // none beside the pass's layers, and this costs it a walk down to them.
+  octomap::OcTreeKey lo(0, 0, static_cast<octomap::key_type>(band.band_lo));
+  octomap::OcTreeKey hi(0xFFFF, 0xFFFF, static_cast<octomap::key_type>(band.band_hi));
+  if (within) {
+    const double x1 = within->origin_x + within->width * within->resolution;
+    const double y1 = within->origin_y + within->height * within->resolution;
+    octomap::OcTreeKey a, b;
+    if (!coordToKeySafe(tree, within->origin_x, within->origin_y, 0.0, &a) || !coordToKeySafe(tree, x1, y1, 0.0, &b)) {
+      return obstaclesBesidePass(tree, band, nullptr);
+    }
+    lo[0] = a[0], lo[1] = a[1], hi[0] = b[0], hi[1] = b[1];
+  }
+  for (auto it = tree.begin_leafs_bbx(lo, hi), end = tree.end_leafs_bbx(); it != end; ++it) {
+    if (!tree.isNodeOccupied(*it)) continue;
+    // A pruned leaf spans a cube of voxels: those of it in the band and beside the pass.
+    const unsigned span = 1u << (depth - it.getDepth());
+    const octomap::OcTreeKey k = it.getKey();
+    const unsigned base[3] = {k[0] & ~(span - 1), k[1] & ~(span - 1), k[2] & ~(span - 1)};
+    for (unsigned kz = std::max(base[2], band.band_lo); kz <= std::min(base[2] + span - 1, band.band_hi); ++kz) {
+      if (band.passSpeaksFor(kz)) continue;
+      for (unsigned ky = base[1]; ky < base[1] + span; ++ky) {
+        for (unsigned kx = base[0]; kx < base[0] + span; ++kx) keys.emplace_back(kx, ky, kz);
+      }
+    }
+  }
+  return keys;
+}
+
+std::vector<octomap::OcTreeKey> writeGridIntoBand(const GridImage& grid, const PassBand& band, octomap::OcTree* tree) {
+  std::vector<octomap::OcTreeKey> beside = obstaclesBesidePass(*tree, band, &grid);
+  std::sort(beside.begin(), beside.end(), KeyLess());
   std::vector<KeyUpdate> values;
   const float occupied = tree->getClampingThresMaxLog(), free = tree->getClampingThresMinLog();
   for (int j = 0; j < grid.height; ++j) {
@@ -49,8 +109,9 @@ std::vector<octomap::OcTreeKey> writeGridIntoBand(const GridImage& grid, unsigne
                           grid.origin_y + (j + 0.5) * grid.resolution, 0.0, &key)) {
         continue;
       }
-      for (unsigned kz = band_lo; kz <= band_hi; ++kz) {
+      for (unsigned kz = band.band_lo; kz <= band.band_hi; ++kz) {
         key[2] = static_cast<octomap::key_type>(kz);
+        if (!beside.empty() && std::binary_search(beside.begin(), beside.end(), key, KeyLess())) continue;
         values.push_back({key, v > 50 ? occupied : free});
       }
     }
@@ -64,13 +125,18 @@ std::vector<octomap::OcTreeKey> writeGridIntoBand(const GridImage& grid, unsigne
   return written;
 }
 
-bool saveOptimizedSet(const octomap::OcTree& tree, unsigned band_lo, unsigned band_hi, const GridImage& grid,
+bool saveOptimizedSet(const octomap::OcTree& tree, const PassBand& band, const GridImage& grid,
                       const GridImage& incremental, const std::string& prefix, std::vector<std::string>* written,
                       std::string* error) {
   octomap::OcTree copy(tree);
-  writeGridIntoBand(grid, band_lo, band_hi, &copy);
+  writeGridIntoBand(grid, band, &copy);
   const std::string base = prefix + "_optimized";
-  const GridImage framed = inFrameOf(grid, incremental);
+  GridImage framed = inFrameOf(grid, incremental);
+  for (const octomap::OcTreeKey& k : obstaclesBesidePass(tree, band)) {
+    const int i = int(std::floor((tree.keyToCoord(k[0]) - framed.origin_x) / framed.resolution));
+    const int j = int(std::floor((tree.keyToCoord(k[1]) - framed.origin_y) / framed.resolution));
+    if (i >= 0 && j >= 0 && i < framed.width && j < framed.height) framed.cells[std::size_t(j) * framed.width + i] = 100;
+  }
   FileSet files;
   return addBinaryTree(copy, base + ".bt", &files, error) && addPgmYaml(framed, base, &files, error) &&
          addPng(framed, base + ".png", &files, error) && writeFilesAtomically(files, written, error);
