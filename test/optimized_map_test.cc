@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "octo_slice_mapper/map_evaluation.h"
@@ -191,6 +192,18 @@ TEST(OptimizedMapWithCameraTest, ObstaclesAboveTheLidarPlaneSurviveThePass) {
   const OptimizedMap optimized = mapper.optimize(/*warm_start=*/true);
   int i = int(std::floor((top.x() - optimized.grid.origin_x) / 0.05)), j = int(std::floor((top.y() - optimized.grid.origin_y) / 0.05));
   ASSERT_LT(optimized.grid.at(i, j), 50) << "the lidar's beams pass under the table: the pass alone calls it free";
+  // What ~optimized_map shows: the pass's grid with the cells beside it occupied: the table top,
+  // not a wall the lidar sees (the corridor's north wall at y = 2).
+  const GridImage frame = gridImageOf(mapper.slice());
+  const std::vector<std::size_t> beside = mapper.cellsBesidePass(frame);
+  const auto cellOf = [&](double x, double y) {
+    return std::size_t(std::floor((y - frame.origin_y) / 0.05)) * frame.width + std::size_t(std::floor((x - frame.origin_x) / 0.05));
+  };
+  ASSERT_GT(frame.cells[cellOf(4.0, 2.0)], 65);
+  EXPECT_TRUE(std::count(beside.begin(), beside.end(), cellOf(top.x(), top.y())));
+  EXPECT_FALSE(std::count(beside.begin(), beside.end(), cellOf(4.0, 2.0)));
+  const GridImage shown = withObstacles(inFrameOf(optimized.grid, frame), frame, beside);
+  EXPECT_EQ(shown.cells[cellOf(top.x(), top.y())], 100);
 
   char tmpl[] = "/tmp/osm_optimized_camera_XXXXXX";
   const std::string dir = ::mkdtemp(tmpl);

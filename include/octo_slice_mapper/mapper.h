@@ -91,6 +91,9 @@ class Mapper {
   // pass, see PassBand) and refreshes the slice. `band`: passBand(), found once for all strips.
   void applyOptimized(const GridImage& grid, const PassBand& band);
   PassBand passBand() const;
+  // Cells of `frame` (the slice as gridImageOf draws it) occupied there while no voxel of the
+  // pass's layers in their column is: other sensors' obstacles, which the optimized map shows too.
+  std::vector<std::size_t> cellsBesidePass(const GridImage& frame) const;
   // Brings the octree up to date and lends it (see MapSnapshot) until endSnapshot(). Reading the
   // lent octree from another thread is safe while this thread keeps inserting; reset(), load()
   // and applyOptimized() are refused meanwhile.

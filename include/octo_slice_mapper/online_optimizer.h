@@ -36,10 +36,14 @@ struct OnlineOptimizerInput {
   // constructor's. A pass with other options than the last (options_version) looks at every cell.
   std::optional<GlobalOptimizerOptions> options;
   std::uint64_t options_version = 0;
+  // Cells of `incremental` (indices) with an obstacle beside the pass's layers (Mapper::
+  // cellsBesidePass): shown occupied in the result, not part of the pass's state.
+  std::vector<std::size_t> beside;
 };
 
 struct OnlineOptimizerResult {
   OptimizedMap map;  // drawn in the frame of the input's incremental slice
+  GridImage shown;   // map.grid with the input's obstacles beside the pass: what ~optimized_map shows
   std::uint64_t version = 0;
   double newest_stamp = 0.0;
   double seconds = 0.0;  // the pass, from taking its input to leaving its result

@@ -38,14 +38,14 @@ OptimizedMap optimizeScans(const std::vector<StoredScan>& scans, const GlobalOpt
                            std::unique_ptr<GlobalOptimizer>* kept = nullptr);
 
 // The slice band's voxel layers (z keys band_lo..band_hi, SliceGrid::bandMinKey/MaxKey) and, of
-// them, the layers the global pass speaks for: those its scans were taken in (a 2D lidar's one or
-// two). An obstacle in a band voxel outside those (a depth camera's table top or shelf overhang
+// them, the layers the global pass speaks for: those its scans' beams sweep (a level 2D lidar's
+// one; a tilted one's a few more). An obstacle in a band voxel outside those (a depth camera's table top or shelf overhang
 // above the lidar's plane) is another sensor's evidence, which the pass cannot see: its result
 // neither overwrites that voxel nor hides it (issue 22: a save with the global pass erased the
 // table top the camera had mapped).
 struct PassBand {
   unsigned band_lo = 0, band_hi = 0;
-  unsigned scans_lo = 1, scans_hi = 0;  // none: the pass speaks for the whole band
+  unsigned scans_lo = 1, scans_hi = 0;  // the layers its beams sweep; none: the whole band
   static PassBand of(const std::vector<StoredScan>& scans, const octomap::OcTree& tree, unsigned band_lo,
                      unsigned band_hi);
   bool passSpeaksFor(unsigned kz) const { return scans_lo > scans_hi || (kz >= scans_lo && kz <= scans_hi); }
@@ -55,6 +55,9 @@ struct PassBand {
 // given), in the tree's leaf order.
 std::vector<octomap::OcTreeKey> obstaclesBesidePass(const octomap::OcTree& tree, const PassBand& band,
                                                     const GridImage* within = nullptr);
+
+// `grid` with the cells `cells` (indices into `frame`, a grid on the same lattice) occupied.
+GridImage withObstacles(const GridImage& grid, const GridImage& frame, const std::vector<std::size_t>& cells);
 
 // Sets the band's voxels under every known cell of `grid` to the tree's clamping bound (occupied
 // -> max, free -> min), except obstaclesBesidePass; unknown cells are left alone. `grid` must be

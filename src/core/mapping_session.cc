@@ -217,6 +217,7 @@ std::optional<OnlineOptimizerInput> MappingSession::onlinePassInput() {
                            kept.end());
     }
     input.incremental = gridImageOf(mapper_.slice());
+    input.beside = mapper_.cellsBesidePass(input.incremental);
     input.version = version_;
     input.newest_stamp = newest_stamp_;
     input.options = mapper_.options().optimizer;

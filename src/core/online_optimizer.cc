@@ -117,6 +117,7 @@ void OnlineOptimizer::run() {
     result.map = optimizeScans(input.scans, options, resolution_, &start, {}, revisit_from > 0 ? &revisit : nullptr,
                                &optimizer_);
     result.map.grid = inFrameOf(result.map.grid, input.incremental);
+    result.shown = withObstacles(result.map.grid, input.incremental, input.beside);
     result.scans_revisited_from = revisit_from;
     result.version = input.version;
     result.newest_stamp = input.newest_stamp;

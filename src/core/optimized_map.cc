@@ -52,10 +52,17 @@ PassBand PassBand::of(const std::vector<StoredScan>& scans, const octomap::OcTre
   band.band_hi = band_hi;
   bool any = false;
   for (const StoredScan& s : scans) {
-    octomap::OcTreeKey key;
-    if (!coordToKeySafe(tree, s.origin.x(), s.origin.y(), s.origin.z(), &key)) continue;
-    band.scans_lo = any ? std::min<unsigned>(band.scans_lo, key[2]) : key[2];
-    band.scans_hi = any ? std::max<unsigned>(band.scans_hi, key[2]) : key[2];
+    // The heights its beams sweep: a level scan stays in its origin's layer; one tilted by a degree
+    // reaches +-0.2 m at 12 m (far returns of a real robot's lidar land in the layers beside).
+    const Eigen::Matrix3f r = s.rotation.toRotationMatrix();
+    const double reach = std::min<double>(s.range_max, 100.0) * std::hypot(r(2, 0), r(2, 1));
+    octomap::OcTreeKey low, high;
+    if (!coordToKeySafe(tree, s.origin.x(), s.origin.y(), s.origin.z() - reach, &low) ||
+        !coordToKeySafe(tree, s.origin.x(), s.origin.y(), s.origin.z() + reach, &high)) {
+      continue;
+    }
+    band.scans_lo = any ? std::min<unsigned>(band.scans_lo, low[2]) : low[2];
+    band.scans_hi = any ? std::max<unsigned>(band.scans_hi, high[2]) : high[2];
     any = true;
   }
   return band;
@@ -93,6 +100,17 @@ std::vector<octomap::OcTreeKey> obstaclesBesidePass(const octomap::OcTree& tree,
     }
   }
   return keys;
+}
+
+GridImage withObstacles(const GridImage& grid, const GridImage& frame, const std::vector<std::size_t>& cells) {
+  GridImage out = grid;
+  for (std::size_t c : cells) {
+    const int fi = int(c % std::size_t(frame.width)), fj = int(c / std::size_t(frame.width));
+    const int i = fi + int(std::lround((frame.origin_x - grid.origin_x) / grid.resolution));
+    const int j = fj + int(std::lround((frame.origin_y - grid.origin_y) / grid.resolution));
+    if (i >= 0 && j >= 0 && i < out.width && j < out.height) out.cells[std::size_t(j) * out.width + i] = 100;
+  }
+  return out;
 }
 
 std::vector<octomap::OcTreeKey> writeGridIntoBand(const GridImage& grid, const PassBand& band, octomap::OcTree* tree) {

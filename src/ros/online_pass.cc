@@ -35,7 +35,7 @@ void OnlinePass::tick(const ros::WallTimerEvent&) {
     const ros::Time now = ros::Time::now();
     // Stamped with the newest scan the map explains (how fresh it is); map_load_time is when it
     // went out.
-    toOccupancyGrid(result->map.grid, slice_min_z_, frame_id_, ros::Time(result->newest_stamp), &grid);
+    toOccupancyGrid(result->shown, slice_min_z_, frame_id_, ros::Time(result->newest_stamp), &grid);
     grid.info.map_load_time = now;
     const double age = now.toSec() - result->newest_stamp;
     {
