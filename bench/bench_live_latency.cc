@@ -9,6 +9,11 @@
 // of the background global pass (~online_optimize): the optimized maps received, and from
 // /diagnostics the passes done, the longest pass and how far the published optimized map lagged
 // behind the newest scan at most and at the end.
+// With ~camera_rate > 0 (camera:=true in live_latency.launch) a Kinect-class depth camera runs
+// beside the lidar: organized 640 x 480 PointCloud2 frames on camera_depth_optical_frame at that
+// rate (issue 22), answered and measured like the scans. Its frames are rendered before the clock
+// starts (a second's worth along the tour, then again: each frame's rays cost the mapper what a
+// live one would, though after the first second they no longer fit the robot's pose).
 // Both subscriptions ask for TCP_NODELAY, as a latency-minded client should: without it the
 // node's small map_updates messages sit in the kernel (Nagle's algorithm meeting the client's
 // delayed ACK) and ~1 % of them arrive ~20 ms late (measured: p99 20.5 ms against 3 ms).
@@ -17,7 +22,9 @@
 #include <nav_msgs/OccupancyGrid.h>
 #include <ros/ros.h>
 #include <sensor_msgs/LaserScan.h>
+#include <sensor_msgs/PointCloud2.h>
 #include <tf2_ros/static_transform_broadcaster.h>
+#include <tf2_eigen/tf2_eigen.h>
 #include <tf2_ros/transform_broadcaster.h>
 #include <unistd.h>
 
@@ -32,8 +39,10 @@
 #include <vector>
 
 #include "bench_common.h"
+#include "octo_slice_mapper/sim/depth_camera.h"
 #include "octo_slice_mapper/sim/session.h"
 #include "planar_transform.h"
+#include "ros/point_cloud_conversion.h"
 
 namespace osm = octo_slice_mapper;
 
@@ -73,9 +82,10 @@ double percentile(std::vector<double> v, double q) {
 int main(int argc, char** argv) {
   ros::init(argc, argv, "bench_live_latency");
   ros::NodeHandle nh, pnh("~");
-  double duration = 60.0, rate = 40.0;
+  double duration = 60.0, rate = 40.0, camera_rate = 0.0;
   pnh.param("duration", duration, duration);
   pnh.param("rate", rate, rate);
+  pnh.param("camera_rate", camera_rate, camera_rate);
 
   osm::sim::SessionSpec spec = osm::sim::SessionSpec::officeTour();
   spec.lidar.beams = 1081;
@@ -115,9 +125,21 @@ int main(int argc, char** argv) {
         }
       });
   ros::Publisher scan_pub = nh.advertise<sensor_msgs::LaserScan>("scan", 100);
+  ros::Publisher cloud_pub = nh.advertise<sensor_msgs::PointCloud2>("camera/depth/points", 5);
   tf2_ros::TransformBroadcaster tf;
   tf2_ros::StaticTransformBroadcaster static_tf;
-  static_tf.sendTransform(osm::tools::planarTransform("base_link", "laser", ros::Time::now(), spec.lidar.mount_x, 0, spec.lidar.mount_z, 0));
+  std::vector<geometry_msgs::TransformStamped> statics{
+      osm::tools::planarTransform("base_link", "laser", ros::Time::now(), spec.lidar.mount_x, 0, spec.lidar.mount_z, 0)};
+  const osm::sim::CameraMount mount;
+  const Eigen::Isometry3d optical_on_base = osm::sim::cameraLinkOnBase(mount) * osm::sim::opticalOnCameraLink();
+  if (camera_rate > 0.0) {
+    geometry_msgs::TransformStamped t = tf2::eigenToTransform(optical_on_base);
+    t.header.frame_id = "base_link";
+    t.header.stamp = ros::Time::now();
+    t.child_frame_id = "camera_depth_optical_frame";
+    statics.push_back(t);
+  }
+  static_tf.sendTransform(statics);
   ros::AsyncSpinner spinner(1);
   spinner.start();
   const ros::WallTime wait_until = ros::WallTime::now() + ros::WallDuration(20.0);
@@ -134,9 +156,25 @@ int main(int argc, char** argv) {
     poses.push_back(session.poseAt(t));
     scans.push_back(session.scanAt(t, &rng));
   }
+  std::vector<sensor_msgs::PointCloud2> frames;
+  if (camera_rate > 0.0) {
+    const osm::sim::BoxScene scene = osm::sim::BoxScene::of(session.plan());
+    const osm::sim::DepthCameraSpec full;  // 640 x 480
+    for (int k = 0; k < int(std::ceil(camera_rate)); ++k) {
+      const osm::sim::Pose2D p = session.poseAt(k / camera_rate);
+      Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
+      base.translate(Eigen::Vector3d(p.x, p.y, 0.0));
+      base.rotate(Eigen::AngleAxisd(p.yaw, Eigen::Vector3d::UnitZ()));
+      frames.push_back(osm::ros_adapter::organizedCloud(osm::sim::depthFrame(scene, base * optical_on_base, full, &rng),
+                                                        full.width, full.height, "camera_depth_optical_frame"));
+    }
+    const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(10.0);
+    while (ros::ok() && cloud_pub.getNumSubscribers() == 0 && ros::WallTime::now() < until) ros::WallDuration(0.05).sleep();
+  }
   int pid = 0;
   const long ticks0 = cpuTicksOf("mapper_node", &pid);
-  std::vector<double> stamps;
+  std::vector<double> stamps, cloud_stamps;
+  double next_cloud = 0.0;  // wall seconds since the start
   ros::Rate loop(rate);
   const ros::WallTime start = ros::WallTime::now();
   for (std::size_t k = 0; ros::ok() && k < scans.size() && (ros::WallTime::now() - start).toSec() < duration; ++k) {
@@ -157,6 +195,17 @@ int main(int argc, char** argv) {
     tf.sendTransform(osm::tools::planarTransform("odom", "base_link", stamp + ros::Duration(1e-3), pose.x, pose.y, 0.0, pose.yaw));
     scan_pub.publish(msg);
     stamps.push_back(stamp.toSec());
+    // The camera's frames due by now, each stamped when sent, with the base's pose at that stamp.
+    while (!frames.empty() && (ros::WallTime::now() - start).toSec() >= next_cloud) {
+      sensor_msgs::PointCloud2& cloud = frames[cloud_stamps.size() % frames.size()];
+      cloud.header.stamp = ros::Time::now();
+      if (cloud.header.stamp.toSec() == stamp.toSec()) cloud.header.stamp += ros::Duration(1e-6);  // its own stamp
+      tf.sendTransform(osm::tools::planarTransform("odom", "base_link", cloud.header.stamp + ros::Duration(1e-3), pose.x,
+                                                   pose.y, 0.0, pose.yaw));
+      cloud_pub.publish(cloud);
+      cloud_stamps.push_back(cloud.header.stamp.toSec());
+      next_cloud += 1.0 / camera_rate;
+    }
     loop.sleep();
   }
   const double wall = (ros::WallTime::now() - start).toSec();
@@ -176,16 +225,25 @@ int main(int argc, char** argv) {
     if (k < third) early.push_back(it->second * 1000.0);
     if (k >= stamps.size() - third) late.push_back(it->second * 1000.0);
   }
+  std::vector<double> cloud_latency;
+  std::size_t clouds_dropped = 0;
+  for (double st : cloud_stamps) {
+    const auto it = latency_by_stamp.find(st);
+    if (it == latency_by_stamp.end()) ++clouds_dropped;
+    else cloud_latency.push_back(it->second * 1000.0);
+  }
   const double cpu = ticks0 >= 0 && ticks1 >= 0 ? double(ticks1 - ticks0) / ::sysconf(_SC_CLK_TCK) / wall : -1.0;
   std::printf("{\"bench\": \"live_latency\", \"scans\": %zu, \"rate_hz\": %.1f, \"beams\": %d, \"seconds\": %.1f, "
               "\"dropped\": %zu, \"latency_ms_first_third\": {\"median\": %.2f, \"p99\": %.2f}, "
               "\"latency_ms_last_third\": {\"median\": %.2f, \"p99\": %.2f}, \"mapper_cpu_share\": %.3f, "
               "\"full_maps_received\": %zu, \"map_cells_at_end\": %zu, \"optimized_maps_received\": %zu, "
               "\"online_passes\": %.0f, \"longest_online_pass_s\": %.2f, \"optimized_map_age_s\": {\"max\": %.2f, "
-              "\"last\": %.2f}}\n",
+              "\"last\": %.2f}, \"camera_hz\": %.1f, \"clouds\": %zu, \"clouds_dropped\": %zu, "
+              "\"cloud_latency_ms\": {\"median\": %.2f, \"p99\": %.2f}}\n",
               stamps.size(), rate, spec.lidar.beams, wall, dropped, osm::bench::median(early), percentile(early, 0.99),
               osm::bench::median(late), percentile(late, 0.99), cpu, full_maps, map_cells, optimized_maps, online_passes,
-              longest_pass, max_age, last_age);
+              longest_pass, max_age, last_age, camera_rate, cloud_stamps.size(), clouds_dropped,
+              osm::bench::median(cloud_latency), percentile(cloud_latency, 0.99));
   std::fflush(stdout);
   ros::shutdown();
   return 0;
