@@ -231,4 +231,30 @@ TEST(OptimizedMapWithCameraTest, ObstaclesAboveTheLidarPlaneSurviveThePass) {
   EXPECT_FALSE(mapper.tree().isNodeOccupied(under));
 }
 
+// A result replaces the one before in full: the pass writes only the layers it speaks for, so a
+// wall the first result wrote cannot stay behind as if another sensor had seen it.
+TEST(OptimizedMapApplyTest, ASecondResultReplacesTheFirst) {
+  Mapper mapper;
+  const sim::SimulatedSession session(sim::FloorPlan::doorCorridor(), sim::SessionSpec::corridorPass());
+  for (const Scan& s : session.allScans()) ASSERT_TRUE(mapper.insert(s).ok());
+  GridImage grid = mapper.optimize(/*warm_start=*/true).grid;
+  std::size_t cell = grid.cells.size();
+  for (std::size_t c = 0; c < grid.cells.size() && cell == grid.cells.size(); ++c) {
+    if (grid.cells[c] == 0) cell = c;  // a free cell
+  }
+  ASSERT_LT(cell, grid.cells.size());
+  const double x = grid.origin_x + (double(cell % grid.width) + 0.5) * grid.resolution;
+  const double y = grid.origin_y + (double(cell / grid.width) + 0.5) * grid.resolution;
+  grid.cells[cell] = 100;
+  mapper.applyOptimized(grid, mapper.passBand());
+  ASSERT_GT(mapper.slice().valueAt(x, y), 65);
+  grid.cells[cell] = 0;
+  mapper.applyOptimized(grid, mapper.passBand());
+  EXPECT_LT(mapper.slice().valueAt(x, y), 50);
+  for (double z = mapper.options().slice.min_z; z <= mapper.options().slice.max_z; z += 0.05) {
+    const octomap::OcTreeNode* node = mapper.tree().search(x, y, z);
+    EXPECT_FALSE(node && mapper.tree().isNodeOccupied(node)) << "z " << z;
+  }
+}
+
 }  // namespace

@@ -59,10 +59,12 @@ std::vector<octomap::OcTreeKey> obstaclesBesidePass(const octomap::OcTree& tree,
 // `grid` with the cells `cells` (indices into `frame`, a grid on the same lattice) occupied.
 GridImage withObstacles(const GridImage& grid, const GridImage& frame, const std::vector<std::size_t>& cells);
 
-// Sets the band's voxels under every known cell of `grid` to the tree's clamping bound (occupied
-// -> max, free -> min), except obstaclesBesidePass; unknown cells are left alone. `grid` must be
-// aligned with the tree's voxel columns (GlobalOptimizer and SliceGrid grids are). Returns the
-// keys written.
+// Sets the voxels of the band's layers the pass speaks for under every known cell of `grid` to the
+// tree's clamping bound (occupied -> max, free -> min); unknown cells and the other layers are left
+// alone (before issue 22 every layer of the band was written: a level lidar's result stood for the
+// whole band, and a second pass could not tell its predecessor's walls from a camera's table top).
+// `grid` must be aligned with the tree's voxel columns (GlobalOptimizer and SliceGrid grids are).
+// Returns the keys written.
 std::vector<octomap::OcTreeKey> writeGridIntoBand(const GridImage& grid, const PassBand& band, octomap::OcTree* tree);
 
 // Writes PREFIX_optimized.{bt,pgm,yaml,png}: the .bt is a copy of `tree` with `grid` written into

@@ -9,13 +9,6 @@
 #include "octo_slice_mapper/octree_batch_update.h"
 
 namespace octo_slice_mapper {
-namespace {
-struct KeyLess {
-  bool operator()(const octomap::OcTreeKey& a, const octomap::OcTreeKey& b) const {
-    return a[2] != b[2] ? a[2] < b[2] : a[1] != b[1] ? a[1] < b[1] : a[0] < b[0];
-  }
-};
-}  // namespace
 
 OptimizedMap optimizeScans(const std::vector<StoredScan>& scans, const GlobalOptimizerOptions& options,
                            double resolution, const GridImage* warm_start, const ProgressFn& progress,
@@ -114,8 +107,6 @@ GridImage withObstacles(const GridImage& grid, const GridImage& frame, const std
 }
 
 std::vector<octomap::OcTreeKey> writeGridIntoBand(const GridImage& grid, const PassBand& band, octomap::OcTree* tree) {
-  std::vector<octomap::OcTreeKey> beside = obstaclesBesidePass(*tree, band, &grid);
-  std::sort(beside.begin(), beside.end(), KeyLess());
   std::vector<KeyUpdate> values;
   const float occupied = tree->getClampingThresMaxLog(), free = tree->getClampingThresMinLog();
   for (int j = 0; j < grid.height; ++j) {
@@ -128,8 +119,8 @@ std::vector<octomap::OcTreeKey> writeGridIntoBand(const GridImage& grid, const P
         continue;
       }
       for (unsigned kz = band.band_lo; kz <= band.band_hi; ++kz) {
+        if (!band.passSpeaksFor(kz)) continue;  // another sensor's layer: its own evidence stays
         key[2] = static_cast<octomap::key_type>(kz);
-        if (!beside.empty() && std::binary_search(beside.begin(), beside.end(), key, KeyLess())) continue;
         values.push_back({key, v > 50 ? occupied : free});
       }
     }
