@@ -24,10 +24,17 @@ void MapPublisher::publishChange(MappingSession& session, const KeyBox& touched,
   if (touched.empty()) return;
   map_msgs::OccupancyGridUpdate update;
   bool send_full = false, send_update = false;
+  // For a moment after the grid grew, whole maps instead of updates: the small update can reach a
+  // subscriber before the large map it refers to, and rviz's Map display then rejects it ("Update
+  // area outside of original map area", red from then on; seen with the depth camera, whose
+  // frames grow the grid as the robot looks into new rooms).
+  const std::int64_t now = ros::WallTime::now().toNSec();
+  const bool settling = now < whole_maps_until_ns_;
   session.withMapper([&](const Mapper& mapper) {
-    send_full = mapper.slice().geometry() != published_geometry_;
+    send_full = settling || mapper.slice().geometry() != published_geometry_;
     send_update = !send_full && toOccupancyGridUpdate(mapper.slice(), touched, frame_id_, stamp, &update);
   });
+  if (send_full && !settling) whole_maps_until_ns_ = now + kSettleNs;
   if (send_full) publishFull(session, stamp, /*with_markers=*/false);
   if (send_update) updates_pub_.publish(update);
 }

@@ -33,6 +33,8 @@ class MapPublisher {
   ros::Publisher map_pub_, metadata_pub_, updates_pub_, markers_pub_, optimized_pub_;
   std::atomic<std::uint64_t> published_geometry_{~std::uint64_t{0}};  // slice geometry last sent whole
   std::atomic<std::uint64_t> published_changes_{~std::uint64_t{0}};   // session.changes() then
+  static constexpr std::int64_t kSettleNs = 300000000;                // 0.3 s of whole maps after growth
+  std::atomic<std::int64_t> whole_maps_until_ns_{0};                  // wall clock
 };
 
 }  // namespace ros_adapter
