@@ -18,6 +18,33 @@ namespace {
 
 std::string absoluteTopic(const std::string& topic) { return topic.empty() || topic[0] == '/' ? topic : "/" + topic; }
 
+// One sensor message placed through the bag's tf and converted to the core's type, then handed
+// on; or the reason it is not, counted.
+template <typename Msg, typename Core, typename Convert>
+void placeAndHandOn(const rosbag::MessageInstance& m, const tf2::BufferCore& buffer, const std::string& fixed_frame,
+                    const char* wrong_type, const char* no_transform, Convert convert,
+                    const std::function<void(const Core&)>& hand_on, std::map<std::string, std::size_t>* skipped) {
+  const auto msg = m.instantiate<Msg>();
+  if (!msg) {
+    (*skipped)[wrong_type]++;
+    return;
+  }
+  Eigen::Isometry3d pose;
+  try {
+    pose = tf2::transformToEigen(buffer.lookupTransform(fixed_frame, msg->header.frame_id, msg->header.stamp));
+  } catch (const tf2::TransformException&) {
+    (*skipped)[no_transform]++;
+    return;
+  }
+  Core core;
+  const ros_adapter::ScanRejection rejection = convert(*msg, pose, &core);
+  if (rejection.rejected()) {
+    (*skipped)[rejection.key]++;
+    return;
+  }
+  if (hand_on) hand_on(core);
+}
+
 }  // namespace
 
 bool readBag(const std::string& path, const BagTopics& topics, const std::string& fixed_frame,
@@ -41,14 +68,6 @@ bool readBag(const std::string& path, const BagTopics& topics, const std::string
         }
       }
     }
-    const auto poseOf = [&](const std_msgs::Header& header, Eigen::Isometry3d* pose) {
-      try {
-        *pose = tf2::transformToEigen(buffer.lookupTransform(fixed_frame, header.frame_id, header.stamp));
-        return true;
-      } catch (const tf2::TransformException&) {
-        return false;
-      }
-    };
     // Pass 2: the sensors' messages, in the bag's order.
     const std::string scan_topic = absoluteTopic(topics.scan), cloud_topic = absoluteTopic(topics.cloud);
     std::vector<std::string> wanted;
@@ -61,41 +80,20 @@ bool readBag(const std::string& path, const BagTopics& topics, const std::string
     for (const rosbag::MessageInstance& m : view) {
       if (progress && seen++ % 100 == 0) progress(total ? double(seen) / total : 1.0);
       const std::string topic = absoluteTopic(m.getTopic());
-      Eigen::Isometry3d pose;
       if (!scan_topic.empty() && topic == scan_topic) {
-        const auto msg = m.instantiate<sensor_msgs::LaserScan>();
-        if (!msg) {
-          (*skipped)["not_a_laser_scan"]++;
-          continue;
-        }
-        if (!poseOf(msg->header, &pose)) {
-          (*skipped)["no_transform"]++;
-          continue;
-        }
-        Scan scan;
-        const ros_adapter::ScanRejection rejection = ros_adapter::toCoreScan(*msg, pose, &scan);
-        if (rejection.rejected()) {
-          (*skipped)[rejection.key]++;
-          continue;
-        }
-        if (handlers.scan) handlers.scan(scan);
+        placeAndHandOn<sensor_msgs::LaserScan, Scan>(
+            m, buffer, fixed_frame, "not_a_laser_scan", "no_transform",
+            [](const sensor_msgs::LaserScan& msg, const Eigen::Isometry3d& pose, Scan* out) {
+              return ros_adapter::toCoreScan(msg, pose, out);
+            },
+            handlers.scan, skipped);
       } else {
-        const auto msg = m.instantiate<sensor_msgs::PointCloud2>();
-        if (!msg) {
-          (*skipped)["cloud_not_a_point_cloud2"]++;
-          continue;
-        }
-        if (!poseOf(msg->header, &pose)) {
-          (*skipped)["cloud_no_transform"]++;
-          continue;
-        }
-        SensorCloud cloud;
-        const ros_adapter::ScanRejection rejection = ros_adapter::toCoreCloud(*msg, pose, &cloud);
-        if (rejection.rejected()) {
-          (*skipped)[rejection.key]++;
-          continue;
-        }
-        if (handlers.cloud) handlers.cloud(cloud);
+        placeAndHandOn<sensor_msgs::PointCloud2, SensorCloud>(
+            m, buffer, fixed_frame, "cloud_not_a_point_cloud2", "cloud_no_transform",
+            [](const sensor_msgs::PointCloud2& msg, const Eigen::Isometry3d& pose, SensorCloud* out) {
+              return ros_adapter::toCoreCloud(msg, pose, out);
+            },
+            handlers.cloud, skipped);
       }
     }
     if (total == 0) {
