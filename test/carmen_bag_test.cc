@@ -5,8 +5,17 @@
 #include <cmath>
 #include <fstream>
 
+#include <rosbag/bag.h>
+#include <sensor_msgs/LaserScan.h>
+#include <tf2_msgs/TFMessage.h>
+
+#include <cstdlib>
+#include <map>
+
 #include "bag_scans.h"
 #include "carmen_bag_writer.h"
+#include "planar_transform.h"
+#include "ros/point_cloud_conversion.h"
 #include "test_helpers.h"
 
 using namespace octo_slice_mapper;
@@ -75,6 +84,77 @@ TEST(CarmenBag, IntelDatasetRoundTrip) {
   tools::BagScans bag;
   ASSERT_TRUE(tools::readBagScans(dir + "/intel.bag", "/scan", "odom", &bag, &error)) << error;
   expectSameScans(log, bag.scans);
+  std::system(("rm -rf " + dir).c_str());
+}
+
+// A depth camera's bag: clouds placed through the bag's tf at their stamps, in the bag's order
+// with the scans; one before any tf and one with a broken layout counted, not handed on.
+TEST(BagClouds, CloudsComeThroughTheBagsTfInOrderWithTheScans) {
+  char tmpl[] = "/tmp/osm_bag_clouds_XXXXXX";
+  const std::string dir = ::mkdtemp(tmpl);
+  const std::string path = dir + "/camera.bag";
+  {
+    rosbag::Bag bag(path, rosbag::bagmode::Write);
+    tf2_msgs::TFMessage statics;
+    statics.transforms.push_back(tools::planarTransform("base_link", "camera", ros::Time(100.0), 0.1, 0.0, 0.3, 0.0));
+    statics.transforms.push_back(tools::planarTransform("base_link", "laser", ros::Time(100.0), 0.1, 0.0, 0.26, 0.0));
+    bag.write("/tf_static", ros::Time(100.0), statics);
+    const auto cloudAt = [](double t) {
+      sensor_msgs::PointCloud2 c =
+          ros_adapter::organizedCloud({Eigen::Vector3f(1.0f, 0.0f, 0.0f), Eigen::Vector3f(NAN, NAN, NAN)}, 2, 1, "camera");
+      c.header.stamp = ros::Time(t);
+      return c;
+    };
+    bag.write("/camera/points", ros::Time(100.5), cloudAt(100.5));  // before any odom tf
+    for (int k = 0; k < 5; ++k) {
+      const double t = 101.0 + k;
+      tf2_msgs::TFMessage tf;
+      tf.transforms.push_back(tools::planarTransform("odom", "base_link", ros::Time(t), 2.0 * k, 0.0, 0.0, M_PI / 2));
+      bag.write("/tf", ros::Time(t), tf);
+      sensor_msgs::LaserScan scan;
+      scan.header.stamp = ros::Time(t);
+      scan.header.frame_id = "laser";
+      scan.angle_min = 0.0f;
+      scan.angle_increment = 0.1f;
+      scan.angle_max = 0.2f;
+      scan.range_min = 0.1f;
+      scan.range_max = 10.0f;
+      scan.ranges = {1.0f, 2.0f, 3.0f};
+      bag.write("/scan", ros::Time(t), scan);
+      bag.write("/camera/points", ros::Time(t + 0.01), cloudAt(t));  // recorded just after the scan
+    }
+    sensor_msgs::PointCloud2 broken = cloudAt(103.0);
+    broken.data.resize(4);  // less data than 2 points declare
+    bag.write("/camera/points", ros::Time(103.0), broken);
+  }
+  std::vector<char> order;
+  std::vector<SensorCloud> clouds;
+  tools::BagHandlers handlers;
+  handlers.scan = [&](const Scan&) { order.push_back('s'); };
+  handlers.cloud = [&](const SensorCloud& c) {
+    order.push_back('c');
+    clouds.push_back(c);
+  };
+  std::map<std::string, std::size_t> skipped;
+  std::string error;
+  ASSERT_TRUE(tools::readBag(path, {"scan", "camera/points"}, "odom", handlers, &skipped, &error)) << error;
+  EXPECT_EQ(std::string(order.begin(), order.end()), "scscscscsc");
+  EXPECT_EQ(skipped["cloud_no_transform"], 1u);
+  EXPECT_EQ(skipped["cloud_short_data"], 1u);
+  ASSERT_EQ(clouds.size(), 5u);
+  // The camera 0.1 m ahead of a base at (2k, 0) facing +y, 0.3 m up; its point 1 m ahead of it.
+  for (int k = 0; k < 5; ++k) {
+    EXPECT_TRUE(clouds[k].origin.isApprox(Eigen::Vector3d(2.0 * k, 0.1, 0.3), 1e-6)) << clouds[k].origin.transpose();
+    ASSERT_EQ(clouds[k].points.size(), 2u);
+    EXPECT_TRUE(clouds[k].points[0].isApprox(Eigen::Vector3f(2.0f * k, 1.1f, 0.3f), 1e-5f));
+    EXPECT_FALSE(clouds[k].points[1].allFinite()) << "a NaN pixel stays NaN, for the core to count";
+  }
+  // The clouds alone; and a bag without the topic is an error.
+  order.clear();
+  ASSERT_TRUE(tools::readBag(path, {"", "/camera/points"}, "odom", handlers, &skipped, &error)) << error;
+  EXPECT_EQ(std::string(order.begin(), order.end()), "ccccc");
+  EXPECT_FALSE(tools::readBag(path, {"", "/no/such/topic"}, "odom", handlers, &skipped, &error));
+  EXPECT_NE(error.find("no messages on topic"), std::string::npos) << error;
   std::system(("rm -rf " + dir).c_str());
 }
 
