@@ -54,6 +54,11 @@ class LayerCache {
   // The cached layer at z (created empty on first use).
   Layer& layer(std::uint16_t z);
   const Layer* findLayer(std::uint16_t z) const;
+  // Whether updates of layer z go into the cache (else straight into the octree): its cached
+  // layers', and every layer's while holdEverything is on (the octree is lent to a reader and must
+  // not change; its owner must not flush meanwhile).
+  bool holds(std::uint16_t z) const { return hold_everything_ || findLayer(z); }
+  void holdEverything(bool on) { hold_everything_ = on; }
   bool empty() const { return layers_.empty(); }
   // Grows `layer`'s directory to cover the key rectangle (call before apply() in it).
   void cover(Layer* layer, unsigned kx0, unsigned ky0, unsigned kx1, unsigned ky1);
@@ -101,6 +106,7 @@ class LayerCache {
   bool applyTo(const Ref& ref, float update);
 
   octomap::OcTree* tree_;
+  bool hold_everything_ = false;
   std::vector<std::unique_ptr<Layer>> layers_;
   std::vector<Ref> dirty_;  // voxels the octree lags behind
   std::vector<KeyUpdate> flush_buffer_;

@@ -115,15 +115,12 @@ class ScanInserter {
   const InverseSensorModel& model() const { return model_; }
   const InsertOptions& options() const { return options_; }
 
-  // Level scans update a cache of the octree's layers (see LayerCache): the octree itself is
-  // up to date only after flush(). Whoever changes the octree by other means must flush() before
-  // and dropCache() after.
+  // Scans update a write-back cache of the octree's layers (see LayerCache): the octree itself is
+  // up to date only after flush(). What the cache does around other changes of the octree (a
+  // loan to a reader, a load, the global pass's result) is its owner's policy (Mapper), through
+  // cache(): LayerCache::holdEverything, clear, forget.
   void flush() { cache_.flush(); }
-  // While the octree is lent to a reader, every update (also of non-level scans and point clouds)
-  // goes into the cache; the caller must not flush meanwhile.
-  void setOctreeLent(bool lent) { octree_lent_ = lent; }
-  void dropCache() { cache_.clear(); }
-  void forgetCached(const octomap::OcTreeKey& key) { cache_.forget(key); }
+  LayerCache& cache() { return cache_; }
   const LayerCache& cache() const { return cache_; }
   // What the inserter holds besides the octree: the layer cache and the per-scan evidence window.
   std::size_t memoryBytes() const { return cache_.memoryBytes() + evidence_.memoryBytes(); }
@@ -172,7 +169,6 @@ class ScanInserter {
   std::optional<InverseSensorModel::ConeTable> cone_;  // for the last half-angle seen
 
   LayerCache cache_;
-  bool octree_lent_ = false;
 };
 
 }  // namespace octo_slice_mapper

@@ -153,7 +153,7 @@ MapSnapshot Mapper::snapshot(bool with_scans) {
   MapSnapshot snap = sliceAndScans(with_scans);
   snap.tree = &tree();
   lent_ = true;
-  inserter_->setOctreeLent(true);
+  inserter_->cache().holdEverything(true);  // the lent octree must not change
   return snap;
 }
 
@@ -170,7 +170,7 @@ MapSnapshot Mapper::sliceAndScans(bool with_scans) const {
 
 void Mapper::endSnapshot() {
   lent_ = false;
-  inserter_->setOctreeLent(false);
+  inserter_->cache().holdEverything(false);
 }
 
 namespace {
@@ -296,7 +296,7 @@ Mapper::Cleared Mapper::clearBox(const Eigen::Vector3d& min, const Eigen::Vector
   inserter_->flush();
   Cleared cleared;
   cleared.voxels = clearKeyBox(tree_.get(), lo, hi);
-  inserter_->dropCache();  // flushed above: the octree holds all it had
+  inserter_->cache().clear();  // flushed above: the octree holds all it had
   KeyBox box;
   box.add(lo);
   box.add(hi);
@@ -323,7 +323,7 @@ void Mapper::applyOptimized(const GridImage& grid, const PassBand& band) {
   const std::vector<octomap::OcTreeKey> keys = writeGridIntoBand(grid, band, tree_.get());
   KeyBox box;
   for (const octomap::OcTreeKey& k : keys) {
-    inserter_->forgetCached(k);  // it holds the values from before
+    inserter_->cache().forget(k);  // it holds the values from before
     box.add(k);
   }
   slice_->updateColumns(keys, box);

@@ -573,7 +573,7 @@ InsertResult ScanInserter::apply(std::vector<KeyUpdate> updates, InsertResult re
   direct.reserve(updates.size());
   for (const KeyUpdate& u : updates) {
     result.touched.add(u.key);
-    if (octree_lent_ || cache_.findLayer(u.key[2])) {
+    if (cache_.holds(u.key[2])) {
       if (!cache_.apply(u.key, u.log_odds)) continue;
     } else {
       direct.push_back(u);
