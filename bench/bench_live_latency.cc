@@ -162,11 +162,8 @@ int main(int argc, char** argv) {
     const osm::sim::DepthCameraSpec full;  // 640 x 480
     for (int k = 0; k < int(std::ceil(camera_rate)); ++k) {
       const osm::sim::Pose2D p = session.poseAt(k / camera_rate);
-      Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
-      base.translate(Eigen::Vector3d(p.x, p.y, 0.0));
-      base.rotate(Eigen::AngleAxisd(p.yaw, Eigen::Vector3d::UnitZ()));
-      frames.push_back(osm::ros_adapter::organizedCloud(osm::sim::depthFrame(scene, base * optical_on_base, full, &rng),
-                                                        full.width, full.height, "camera_depth_optical_frame"));
+      const auto points = osm::sim::depthFrame(scene, osm::sim::opticalOnRobot(mount, p.x, p.y, p.yaw), full, &rng);
+      frames.push_back(osm::ros_adapter::organizedCloud(points, full.width, full.height, "camera_depth_optical_frame"));
     }
     const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(10.0);
     while (ros::ok() && cloud_pub.getNumSubscribers() == 0 && ros::WallTime::now() < until) ros::WallDuration(0.05).sleep();

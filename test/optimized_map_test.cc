@@ -161,7 +161,6 @@ TEST(OptimizedMapWithCameraTest, ObstaclesAboveTheLidarPlaneSurviveThePass) {
   const sim::SimulatedSession session(plan, sim::SessionSpec::officeTour());
   const sim::BoxScene scene = sim::BoxScene::of(plan);
   const sim::CameraMount mount;
-  const Eigen::Isometry3d optical_on_base = sim::cameraLinkOnBase(mount) * sim::opticalOnCameraLink();
   std::mt19937 rng(3);
   double next_frame = 0.0;
   for (const Scan& s : session.allScans()) {
@@ -169,10 +168,7 @@ TEST(OptimizedMapWithCameraTest, ObstaclesAboveTheLidarPlaneSurviveThePass) {
     if (s.stamp < next_frame) continue;
     next_frame = s.stamp + 1.0 / mount.rate_hz;
     const sim::Pose2D p = session.poseAt(s.stamp);
-    Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
-    base.translate(Eigen::Vector3d(p.x, p.y, 0.0));
-    base.rotate(Eigen::AngleAxisd(p.yaw, Eigen::Vector3d::UnitZ()));
-    const Eigen::Isometry3d pose = base * optical_on_base;
+    const Eigen::Isometry3d pose = sim::opticalOnRobot(mount, p.x, p.y, p.yaw);
     std::vector<Eigen::Vector3f> points = sim::depthFrame(scene, pose, mount.spec, &rng);
     for (Eigen::Vector3f& q : points) q = (pose.cast<float>() * q).eval();
     ASSERT_TRUE(mapper.insertPoints(pose.translation(), points).ok());

@@ -194,16 +194,11 @@ int main(int argc, char** argv) {
     std::size_t frames = 0;
     if (camera) {
       const octo_slice_mapper::sim::BoxScene scene = octo_slice_mapper::sim::BoxScene::of(plan);
-      const Eigen::Isometry3d optical_on_base =
-          octo_slice_mapper::sim::cameraLinkOnBase(mount) * octo_slice_mapper::sim::opticalOnCameraLink();
       std::mt19937 camera_rng(spec.seed + 1);
       for (double t = 0.5 / mount.rate_hz; t <= session.duration(); t += 1.0 / mount.rate_hz, ++frames) {
         const Pose2D p = session.poseAt(t);
-        Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
-        base.translate(Eigen::Vector3d(p.x, p.y, 0.0));
-        base.rotate(Eigen::AngleAxisd(p.yaw, Eigen::Vector3d::UnitZ()));
-        const std::vector<Eigen::Vector3f> points =
-            octo_slice_mapper::sim::depthFrame(scene, base * optical_on_base, mount.spec, &camera_rng);
+        const std::vector<Eigen::Vector3f> points = octo_slice_mapper::sim::depthFrame(
+            scene, octo_slice_mapper::sim::opticalOnRobot(mount, p.x, p.y, p.yaw), mount.spec, &camera_rng);
         sensor_msgs::PointCloud2 cloud = octo_slice_mapper::ros_adapter::organizedCloud(
             points, mount.spec.width, mount.spec.height, "camera_depth_optical_frame");
         cloud.header.stamp = ros::Time(kStartTime + t);

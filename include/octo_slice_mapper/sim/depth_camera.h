@@ -61,6 +61,8 @@ struct CameraMount {
 // base_link -> camera_link (x forward, z up, pitched), and camera_link -> its optical frame (REP 103).
 Eigen::Isometry3d cameraLinkOnBase(const CameraMount& mount);
 Eigen::Isometry3d opticalOnCameraLink();
+// The optical frame in the world for a base at (x, y) facing `yaw`: base * camera_link * optical.
+Eigen::Isometry3d opticalOnRobot(const CameraMount& mount, double x, double y, double yaw);
 
 // One organized frame in the camera's optical frame (REP 103: z forward, x right, y down), row by
 // row; NaN where the camera gets no depth (nothing within range).

@@ -113,6 +113,13 @@ Eigen::Isometry3d cameraLinkOnBase(const CameraMount& mount) {
 
 Eigen::Isometry3d opticalOnCameraLink() { return opticalPose(Eigen::Vector3d::Zero(), 0.0, 0.0); }
 
+Eigen::Isometry3d opticalOnRobot(const CameraMount& mount, double x, double y, double yaw) {
+  Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
+  base.translate(Eigen::Vector3d(x, y, 0.0));
+  base.rotate(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()));
+  return base * (cameraLinkOnBase(mount) * opticalOnCameraLink());  // as the static tf chains them
+}
+
 Eigen::Isometry3d opticalPose(const Eigen::Vector3d& position, double yaw, double pitch) {
   // Body axes (x forward, y left, z up) to optical (z forward, x right, y down).
   Eigen::Matrix3d body_to_optical;
