@@ -58,12 +58,35 @@ struct MapperStats {
   std::uint64_t voxel_updates = 0;    // of scans and clouds
 };
 
+// Works out a depth frame's updates away from the Mapper (on another thread, outside the
+// session's lock), for the map's geometry and options as they were when it was made
+// (Mapper::cloudPreparer); Mapper::insertPrepared applies the result.
+class CloudPreparer {
+ public:
+  CloudPreparer(double resolution, const InsertOptions& options, std::uint64_t map_generation);
+  PreparedCloud prepare(const SensorCloud& cloud);
+  // The Mapper's inserterGeneration() it was made for.
+  std::uint64_t mapGeneration() const { return map_generation_; }
+
+ private:
+  octomap::OcTree geometry_;  // empty: only its key geometry is read
+  ScanInserter inserter_;
+  std::uint64_t map_generation_;
+};
+
 class Mapper {
  public:
   explicit Mapper(const MapperOptions& options = {});
 
   InsertResult insert(const Scan& scan);
   InsertResult insertPoints(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points);
+  // insertPoints in two steps, the first away from the Mapper: a preparer for the map as it is
+  // now, and its result applied. insertPrepared refuses (false, nothing changed) a result made
+  // before a reset, load or reconfigure (another geometry or model): insert that cloud anew.
+  std::unique_ptr<CloudPreparer> cloudPreparer() const;
+  bool insertPrepared(PreparedCloud prepared, std::uint64_t map_generation, InsertResult* result);
+  // Changes whenever the inserter is replaced (reset, load, reconfigure).
+  std::uint64_t inserterGeneration() const { return inserter_generation_; }
   void reset();
   // Replaces the map by a saved .bt/.ot (resolution taken from the file). On failure the
   // current map is kept and false is returned with the reason.
@@ -134,6 +157,7 @@ class Mapper {
   ScanStore store_;
   MapperStats stats_;
   bool lent_ = false;
+  std::uint64_t inserter_generation_ = 0;
 };
 
 }  // namespace octo_slice_mapper

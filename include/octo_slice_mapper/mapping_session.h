@@ -6,6 +6,7 @@
 #pragma once
 
 #include <chrono>
+#include <memory>
 #include <cstdint>
 #include <mutex>
 #include <optional>
@@ -47,7 +48,9 @@ class MappingSession {
     std::lock_guard<std::mutex> lock(mutex_);
     return f(static_cast<const Mapper&>(mapper_));
   }
-  // Inserts under the lock; `waited_ms` gets how long the lock took.
+  // Inserts under the lock; `waited_ms` gets how long the lock took. A cloud's updates are worked
+  // out before, outside the lock (Mapper::cloudPreparer), so scans can be inserted from another
+  // thread meanwhile; clouds go in one at a time, in the order of the calls.
   InsertResult insert(const Scan& scan, double* waited_ms = nullptr);
   InsertResult insert(const SensorCloud& cloud, double* waited_ms = nullptr);
 
@@ -109,6 +112,9 @@ class MappingSession {
   std::uint64_t options_version_ = 0;  // counts reconfigure()s
   double longest_lock_ms_ = 0.0;
   std::uint64_t generation_ = 0;  // counts reset()s and load()s: the scan store began anew
+
+  std::mutex cloud_mutex_;  // one cloud prepared at a time; guards the preparer; taken before mutex_
+  std::unique_ptr<CloudPreparer> cloud_preparer_;
 
   // The background pass's copy of the kept scans, brought up to date under the lock by appending
   // the scans kept since (copying all 2 400 scans of 1081 beams under it held scans back by 5 to

@@ -57,6 +57,12 @@ struct InsertResult {
   bool ok() const { return error.empty(); }
 };
 
+// A cloud's per-voxel updates, worked out before they are applied (ScanInserter::prepareCloud).
+struct PreparedCloud {
+  InsertResult result;             // its readings counted; error set: refused, nothing to apply
+  std::vector<KeyUpdate> updates;  // combined per voxel, in traversal order
+};
+
 // One ray with its interpretation, in the map frame.
 struct Beam {
   Eigen::Vector3d direction;  // unit
@@ -90,6 +96,13 @@ class ScanInserter {
   // Non-finite points are counted (nan / inf) and skipped.
   InsertResult insertPoints(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points,
                             double half_angle);
+  // insertPoints in two steps. The first reads only the octree's key geometry (resolution,
+  // depth), never its contents or the cache, so an inserter over an empty octree of the same
+  // resolution gives the same result: a frame can be prepared away from the map (and its lock)
+  // while scans go on; applyCloud() then puts the updates into this inserter's map.
+  PreparedCloud prepareCloud(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points,
+                             double half_angle);
+  InsertResult applyCloud(PreparedCloud prepared);
 
   const InverseSensorModel& model() const { return model_; }
   const InsertOptions& options() const { return options_; }

@@ -46,6 +46,7 @@ void Mapper::install(std::unique_ptr<octomap::OcTree> tree, const MapperOptions&
   if (tree) tree_ = std::move(tree);
   inserter_ = std::move(inserter);
   slice_ = std::move(slice);
+  inserter_generation_++;
 }
 
 InsertResult Mapper::insert(const Scan& scan) {
@@ -57,6 +58,23 @@ InsertResult Mapper::insert(const Scan& scan) {
 
 InsertResult Mapper::insertPoints(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points) {
   return record(inserter_->insertPoints(origin, points, inserter_->model().halfAngleFor(0.0)), /*cloud=*/true);
+}
+
+CloudPreparer::CloudPreparer(double resolution, const InsertOptions& options, std::uint64_t map_generation)
+    : geometry_(resolution), inserter_(&geometry_, options), map_generation_(map_generation) {}
+
+PreparedCloud CloudPreparer::prepare(const SensorCloud& cloud) {
+  return inserter_.prepareCloud(cloud.origin, cloud.points, inserter_.model().halfAngleFor(0.0));
+}
+
+std::unique_ptr<CloudPreparer> Mapper::cloudPreparer() const {
+  return std::make_unique<CloudPreparer>(tree_->getResolution(), options_.insert, inserter_generation_);
+}
+
+bool Mapper::insertPrepared(PreparedCloud prepared, std::uint64_t map_generation, InsertResult* result) {
+  if (map_generation != inserter_generation_) return false;
+  *result = record(inserter_->applyCloud(std::move(prepared)), /*cloud=*/true);
+  return true;
 }
 
 InsertResult Mapper::record(InsertResult result, bool cloud) {

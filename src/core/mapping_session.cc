@@ -42,9 +42,25 @@ InsertResult MappingSession::insert(const Scan& scan, double* waited_ms) {
 }
 
 InsertResult MappingSession::insert(const SensorCloud& cloud, double* waited_ms) {
+  // Most of a frame's time is working out its updates, which does not read the map: done outside
+  // the lock, so that scans are inserted meanwhile; only applying them holds it.
+  std::lock_guard<std::mutex> one_cloud(cloud_mutex_);
+  std::uint64_t generation = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    generation = mapper_.inserterGeneration();
+  }
+  if (!cloud_preparer_ || cloud_preparer_->mapGeneration() != generation) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    cloud_preparer_ = mapper_.cloudPreparer();
+  }
+  PreparedCloud prepared = cloud_preparer_->prepare(cloud);
   const auto start = std::chrono::steady_clock::now();
   std::lock_guard<std::mutex> lock(mutex_);
   if (waited_ms) *waited_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  InsertResult result;
+  if (mapper_.insertPrepared(std::move(prepared), cloud_preparer_->mapGeneration(), &result)) return recordInsert(result);
+  // Reset, loaded or reconfigured while it was prepared: inserted the ordinary way.
   return recordInsert(mapper_.insertPoints(cloud.origin, cloud.points));
 }
 

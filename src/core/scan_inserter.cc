@@ -72,14 +72,24 @@ InsertResult ScanInserter::insert(const Scan& scan) {
 
 InsertResult ScanInserter::insertPoints(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points,
                                         double half_angle) {
-  InsertResult result;
-  result.error = originError(*tree_, origin);
-  if (!result.ok()) return result;
-  const std::vector<Beam> beams = cloudBeams(origin, points, &result.readings);
+  return applyCloud(prepareCloud(origin, points, half_angle));
+}
+
+PreparedCloud ScanInserter::prepareCloud(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points,
+                                         double half_angle) {
+  PreparedCloud prepared;
+  prepared.result.error = originError(*tree_, origin);
+  if (!prepared.result.ok()) return prepared;
+  const std::vector<Beam> beams = cloudBeams(origin, points, &prepared.result.readings);
   evidence_.setCombining(options_.cloud_combining);
-  std::vector<KeyUpdate> updates = computeUpdates(origin, beams, half_angle);
+  prepared.updates = computeUpdates(origin, beams, half_angle);
   evidence_.setCombining(options_.combining);
-  return apply(std::move(updates), result);
+  return prepared;
+}
+
+InsertResult ScanInserter::applyCloud(PreparedCloud prepared) {
+  if (!prepared.result.ok()) return prepared.result;
+  return apply(std::move(prepared.updates), std::move(prepared.result));
 }
 
 std::vector<Beam> ScanInserter::cloudBeams(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points,
