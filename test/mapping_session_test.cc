@@ -328,3 +328,56 @@ TEST(ClearBox, CutsThroughPrunedLeavesVoxelForVoxel) {
 }
 
 }  // namespace
+
+namespace {
+
+// A small wall of points 2 m in front of an origin, as a depth frame would give.
+SensorCloud wallCloud() {
+  SensorCloud cloud;
+  cloud.origin = Eigen::Vector3d(0.0, 0.0, 0.3);
+  for (int i = -20; i <= 20; ++i) {
+    for (int k = 0; k <= 10; ++k) cloud.points.emplace_back(2.0f, 0.02f * i, 0.1f + 0.04f * k);
+  }
+  return cloud;
+}
+
+std::size_t occupiedLeaves(const octomap::OcTree& tree) {
+  std::size_t n = 0;
+  for (auto it = tree.begin_leafs(); it != tree.end_leafs(); ++it) n += tree.isNodeOccupied(*it);
+  return n;
+}
+
+}  // namespace
+
+TEST(CloudPreparation, GivesInsertPointsTreeAndIsRefusedAfterAReset) {
+  const SensorCloud cloud = wallCloud();
+  Mapper direct, prepared;
+  ASSERT_TRUE(direct.insertPoints(cloud.origin, cloud.points).ok());
+  std::unique_ptr<CloudPreparer> preparer = prepared.cloudPreparer();
+  InsertResult result;
+  ASSERT_TRUE(prepared.insertPrepared(preparer->prepare(cloud), preparer->mapGeneration(), &result));
+  ASSERT_TRUE(result.ok());
+  const octomap::OcTree &a = direct.tree(), &b = prepared.tree();
+  ASSERT_EQ(a.getNumLeafNodes(), b.getNumLeafNodes());
+  ASSERT_GT(occupiedLeaves(b), 0u);
+  for (auto it = a.begin_leafs(); it != a.end_leafs(); ++it) {
+    const octomap::OcTreeNode* other = b.search(it.getKey(), static_cast<unsigned>(it.getDepth()));
+    ASSERT_NE(other, nullptr);
+    EXPECT_EQ(it->getLogOdds(), other->getLogOdds());
+  }
+  // Prepared before a reset: refused, the reset map untouched.
+  PreparedCloud stale = preparer->prepare(cloud);
+  prepared.reset();
+  EXPECT_FALSE(prepared.insertPrepared(std::move(stale), preparer->mapGeneration(), &result));
+  EXPECT_EQ(prepared.tree().getNumLeafNodes(), 0u);
+  EXPECT_EQ(prepared.stats().clouds_inserted, 0u);
+}
+
+TEST_F(MappingSessionTest, CloudsPreparedOutsideTheLockAfterAResetStillGoIn) {
+  MappingSession session(MapperOptions{}, SessionOptions{});
+  ASSERT_TRUE(session.insert(wallCloud()).ok());
+  session.reset();
+  ASSERT_TRUE(session.insert(wallCloud()).ok());  // a new preparer for the new map
+  EXPECT_EQ(session.withMapper([](const Mapper& m) { return m.stats().clouds_inserted; }), 1u);
+  EXPECT_GT(session.withMapper([](Mapper& m) { return occupiedLeaves(m.tree()); }), 0u);
+}
