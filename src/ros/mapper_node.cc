@@ -57,7 +57,6 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
       options_(readNodeOptions(pnh)),
       session_(readMapperOptions(pnh), sessionOptionsOf(options_)),
       tf_listener_(tf_buffer_),
-      cloud_nh_(nh),
       publisher_(nh, pnh, options_.frame_id, options_.publish_markers),
       started_(ros::WallTime::now()) {
   if (!options_.map_file.empty()) {
@@ -78,13 +77,10 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
     ROS_INFO("removed %zu temporary files a killed save had left in %s", stale, options_.maps_dir.c_str());
   }
   diagnostics_pub_ = nh_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 5);
-  cloud_nh_.setCallbackQueue(&cloud_queue_);
-  connect(nh_, "scan", static_cast<std::uint32_t>(std::max(1, options_.scan_queue_size)),
+  connect("scan", static_cast<std::uint32_t>(std::max(1, options_.scan_queue_size)),
           ros::TransportHints().tcpNoDelay(), &scans_);
-  connect(cloud_nh_, "cloud_in", 5, ros::TransportHints(), &clouds_);
-  expire_timer_ = nh_.createWallTimer(ros::WallDuration(0.05), [this](const ros::WallTimerEvent&) { expireTick(&scans_); });
-  cloud_expire_timer_ =
-      cloud_nh_.createWallTimer(ros::WallDuration(0.05), [this](const ros::WallTimerEvent&) { expireTick(&clouds_); });
+  connect("cloud_in", 5, ros::TransportHints(), &clouds_);
+  expire_timer_ = nh_.createWallTimer(ros::WallDuration(0.05), &MapperNode::expireTick, this);
   publish_timer_ = nh_.createTimer(ros::Duration(1.0 / std::max(0.1, options_.publish_rate)),
                                    [this](const ros::TimerEvent&) { publisher_.publishIfChanged(session_, ros::Time::now()); });
   diagnostics_timer_ = nh_.createTimer(ros::Duration(1.0), &MapperNode::publishDiagnostics, this);
@@ -105,14 +101,12 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
       std::function<void()>());
   ROS_INFO("mapping in frame '%s' at %.3f m, slice z [%.2f, %.2f] m", options_.frame_id.c_str(), mapper.resolution,
            mapper.slice.min_z, mapper.slice.max_z);
-  cloud_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &cloud_queue_);
-  cloud_spinner_->start();
 }
 
 template <typename M>
-void MapperNode::connect(ros::NodeHandle nh, const std::string& topic, std::uint32_t queue,
-                         const ros::TransportHints& hints, Input<M>* input) {
-  input->subscriber.subscribe(nh, topic, queue, hints);
+void MapperNode::connect(const std::string& topic, std::uint32_t queue, const ros::TransportHints& hints,
+                         Input<M>* input) {
+  input->subscriber.subscribe(nh_, topic, queue, hints);
   // Registered before the filter connects, so a message is recorded before the filter can answer.
   input->subscriber.registerCallback(boost::function<void(const boost::shared_ptr<const M>&)>(
       [this, input](const boost::shared_ptr<const M>& msg) {
@@ -122,7 +116,7 @@ void MapperNode::connect(ros::NodeHandle nh, const std::string& topic, std::uint
       }));
   // No tolerance: a message is handled as soon as its transform exists (a tolerance would hold
   // every one back until tf runs that far ahead of it).
-  input->filter = std::make_unique<tf2_ros::MessageFilter<M>>(input->subscriber, tf_buffer_, options_.frame_id, queue, nh);
+  input->filter = std::make_unique<tf2_ros::MessageFilter<M>>(input->subscriber, tf_buffer_, options_.frame_id, queue, nh_);
   input->filter->registerCallback(boost::function<void(const boost::shared_ptr<const M>&)>(
       [this, input](const boost::shared_ptr<const M>& msg) {
         if (!input->waiting.delivered(msg)) return;  // timed out (and counted) or taken over already
@@ -163,11 +157,12 @@ bool MapperNode::stampedZero(const std_msgs::Header& header) {
   return true;
 }
 
-template <typename M>
-void MapperNode::expireTick(Input<M>* input) {
-  expireWaiting(input);
+void MapperNode::expireTick(const ros::WallTimerEvent&) {
+  expireWaiting(&scans_);
+  expireWaiting(&clouds_);
   // A message given up no longer holds back the ones that arrived after it.
-  handleReady(input);
+  handleReady(&scans_);
+  handleReady(&clouds_);
 }
 
 template <typename M>
@@ -349,7 +344,6 @@ std::string MapperNode::summary() {
 
 // Runs after ros::spin() returned; roscpp has shut rosconsole down by then, so print directly.
 void MapperNode::shutdown() {
-  cloud_spinner_->stop();  // waits for a frame being inserted
   reconfigure_.reset();
   services_->stop();
   online_pass_.reset();  // waits for a running pass

@@ -1,14 +1,11 @@
 // The ROS face of the mapper: scans and clouds in through tf2, the map out, services beside. The
 // node only takes messages in (waiting for their transform, in arrival order), converts them to
 // core types for the MappingSession, and wires the adapters: MapPublisher (outputs),
-// MapperServices (services), OnlinePass (the background global pass), diagnostics. Scans are
-// handled in order on the global callback queue, clouds in order on a queue and thread of their
-// own (a depth frame takes ~10 ms, most of it outside the map's lock: scans go on meanwhile);
-// the services have a queue of their own.
+// MapperServices (services), OnlinePass (the background global pass), diagnostics. Messages are
+// handled in order on the global callback queue; the services have a queue of their own.
 #pragma once
 
 #include <message_filters/subscriber.h>
-#include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <sensor_msgs/LaserScan.h>
 #include <sensor_msgs/PointCloud2.h>
@@ -49,8 +46,7 @@ class MapperNode {
     PendingMessages<M> waiting;
   };
   template <typename M>
-  void connect(ros::NodeHandle nh, const std::string& topic, std::uint32_t queue, const ros::TransportHints& hints,
-               Input<M>* input);
+  void connect(const std::string& topic, std::uint32_t queue, const ros::TransportHints& hints, Input<M>* input);
   // Inserts the messages whose turn it is (see PendingMessages).
   template <typename M>
   void handleReady(Input<M>* input);
@@ -70,9 +66,7 @@ class MapperNode {
   bool stampedZero(const std_msgs::Header& header);
   // A message stamped well before the last one: a bag restarted (--loop) or /clock reset.
   void checkTimeJump(const ros::Time& stamp);
-  // Gives up the messages of `input` still waiting for tf after ~transform_timeout.
-  template <typename M>
-  void expireTick(Input<M>* input);
+  void expireTick(const ros::WallTimerEvent&);
   void publishDiagnostics(const ros::TimerEvent&);
 
   ros::NodeHandle nh_, pnh_;
@@ -81,13 +75,11 @@ class MapperNode {
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
   Input<sensor_msgs::LaserScan> scans_;
-  ros::CallbackQueue cloud_queue_;  // before clouds_: their subscriber goes first
-  ros::NodeHandle cloud_nh_;        // on cloud_queue_
   Input<sensor_msgs::PointCloud2> clouds_;
   MapPublisher publisher_;
   ros::Publisher diagnostics_pub_;
   ros::Timer publish_timer_, diagnostics_timer_;
-  ros::WallTimer expire_timer_, cloud_expire_timer_;
+  ros::WallTimer expire_timer_;
 
   mutable std::mutex counters_mutex_;  // guards the counters and what follows
   NodeCounters counters_;              // map sizes filled in when reported
@@ -99,7 +91,6 @@ class MapperNode {
   std::unique_ptr<OnlinePass> online_pass_;
   std::unique_ptr<MapperServices> services_;
   std::unique_ptr<LiveReconfigure> reconfigure_;
-  std::unique_ptr<ros::AsyncSpinner> cloud_spinner_;
 };
 
 }  // namespace ros_adapter
