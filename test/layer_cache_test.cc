@@ -19,21 +19,10 @@
 
 using namespace octo_slice_mapper;
 using test_support::laserPoseOnRobot;
+using test_support::expectSameTree;
 using test_support::makeScan;
 
 namespace {
-
-void expectSameTree(const octomap::OcTree& a, const octomap::OcTree& b) {
-  ASSERT_EQ(a.size(), b.size());
-  ASSERT_EQ(a.getNumLeafNodes(), b.getNumLeafNodes());
-  for (auto it = a.begin_tree(); it != a.end_tree(); ++it) {  // inner nodes too
-    if (it.getDepth() == 0) continue;  // search() reads depth 0 as "full depth"
-    const octomap::OcTreeNode* other = b.search(it.getKey(), it.getDepth());
-    ASSERT_NE(other, nullptr);
-    ASSERT_EQ(other->getLogOdds(), it->getLogOdds());
-    ASSERT_EQ(b.nodeHasChildren(other), a.nodeHasChildren(&*it));
-  }
-}
 
 // The reference: updateNode once per voxel per scan with the combined evidence (the sum of the
 // beams' evidence, in the order they give it; or the strongest occupied evidence, else the

@@ -6,25 +6,10 @@
 
 #include "octo_slice_mapper/scan_inserter.h"
 #include "octo_slice_mapper/sim/session.h"
+#include "test_helpers.h"
 
 using namespace octo_slice_mapper;
-
-namespace {
-
-// Same leaves with the same log-odds, and the same node count (same pruning).
-void expectSameTree(const octomap::OcTree& a, const octomap::OcTree& b) {
-  ASSERT_EQ(a.size(), b.size());
-  ASSERT_EQ(a.getNumLeafNodes(), b.getNumLeafNodes());
-  std::size_t leaves = 0;
-  for (auto it = a.begin_leafs(); it != a.end_leafs(); ++it, ++leaves) {
-    const octomap::OcTreeNode* other = b.search(it.getKey(), it.getDepth());
-    ASSERT_NE(other, nullptr);
-    ASSERT_EQ(other->getLogOdds(), it->getLogOdds());
-  }
-  EXPECT_EQ(leaves, a.getNumLeafNodes());
-}
-
-}  // namespace
+using test_support::expectSameTree;
 
 TEST(OctreeBatchUpdate, RandomUpdatesMatchUpdateNodeOneByOne) {
   std::mt19937 rng(3);

@@ -2,6 +2,8 @@
 #pragma once
 
 #include <dirent.h>
+#include <gtest/gtest.h>
+#include <octomap/OcTree.h>
 
 #include <Eigen/Geometry>
 #include <cstdlib>
@@ -12,6 +14,19 @@
 
 namespace octo_slice_mapper {
 namespace test_support {
+
+// Same nodes (inner ones too) with the same log-odds and children: the same tree, pruning and all.
+inline void expectSameTree(const octomap::OcTree& a, const octomap::OcTree& b) {
+  ASSERT_EQ(a.size(), b.size());
+  ASSERT_EQ(a.getNumLeafNodes(), b.getNumLeafNodes());
+  for (auto it = a.begin_tree(); it != a.end_tree(); ++it) {
+    if (it.getDepth() == 0) continue;  // search() reads depth 0 as "full depth"
+    const octomap::OcTreeNode* other = b.search(it.getKey(), it.getDepth());
+    ASSERT_NE(other, nullptr);
+    ASSERT_EQ(other->getLogOdds(), it->getLogOdds());
+    ASSERT_EQ(b.nodeHasChildren(other), a.nodeHasChildren(&*it));
+  }
+}
 
 // The lab's TurtleBot laser mount: 0.10 m forward, 0.26 m up, on a robot at (x, y, yaw).
 inline Eigen::Isometry3d laserPoseOnRobot(double x, double y, double yaw, double pitch = 0.0) {

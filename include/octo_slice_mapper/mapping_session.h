@@ -6,8 +6,8 @@
 #pragma once
 
 #include <chrono>
-#include <memory>
 #include <cstdint>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -50,7 +50,7 @@ class MappingSession {
   }
   // Inserts under the lock; `waited_ms` gets how long the lock took. A cloud's updates are worked
   // out before, outside the lock (Mapper::cloudPreparer), so scans can be inserted from another
-  // thread meanwhile; clouds go in one at a time, in the order of the calls.
+  // thread meanwhile; clouds go in one at a time.
   InsertResult insert(const Scan& scan, double* waited_ms = nullptr);
   InsertResult insert(const SensorCloud& cloud, double* waited_ms = nullptr);
 

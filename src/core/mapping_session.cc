@@ -45,14 +45,11 @@ InsertResult MappingSession::insert(const SensorCloud& cloud, double* waited_ms)
   // Most of a frame's time is working out its updates, which does not read the map: done outside
   // the lock, so that scans are inserted meanwhile; only applying them holds it.
   std::lock_guard<std::mutex> one_cloud(cloud_mutex_);
-  std::uint64_t generation = 0;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    generation = mapper_.inserterGeneration();
-  }
-  if (!cloud_preparer_ || cloud_preparer_->mapGeneration() != generation) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    cloud_preparer_ = mapper_.cloudPreparer();
+    if (!cloud_preparer_ || cloud_preparer_->mapGeneration() != mapper_.inserterGeneration()) {
+      cloud_preparer_ = mapper_.cloudPreparer();  // an empty octree and an inserter: cheap
+    }
   }
   PreparedCloud prepared = cloud_preparer_->prepare(cloud);
   const auto start = std::chrono::steady_clock::now();
