@@ -42,6 +42,7 @@
 #include "octo_slice_mapper/carmen_log.h"
 #include "octo_slice_mapper/mapper.h"
 #include "octo_slice_mapper/scan_evidence.h"
+#include "octo_slice_mapper/scan_inserter_inspection.h"
 
 namespace osm = octo_slice_mapper;
 using Clock = std::chrono::steady_clock;
@@ -97,7 +98,8 @@ void clampLikeTheMapper(octomap::OcTree* tree) { osm::useMapperThresholds(osm::M
 
 // One scan's combined per-voxel updates, as (d) works them out, without applying them.
 std::vector<osm::KeyUpdate> scanUpdates(osm::ScanInserter* tracer, const osm::Scan& s) {
-  return tracer->computeUpdates(s.sensor_pose.translation(), tracer->beamsOf(s, nullptr),
+  osm::ScanInserterInspection inspect(*tracer);
+  return inspect.computeUpdates(s.sensor_pose.translation(), inspect.beamsOf(s, nullptr),
                                 tracer->model().halfAngleFor(s.angle_increment));
 }
 

@@ -8,6 +8,7 @@
 
 #include "octo_slice_mapper/mapper.h"
 #include "octo_slice_mapper/scan_inserter.h"
+#include "octo_slice_mapper/scan_inserter_inspection.h"
 #include "octo_slice_mapper/sim/depth_camera.h"
 
 using namespace octo_slice_mapper;
@@ -70,7 +71,7 @@ TEST(CloudInsertion, OneRayPerEndVoxelCountsEveryPointAndNeedsFewRays) {
   octomap::OcTree tree(0.05);
   ScanInserter inserter(&tree, InsertOptions());
   ReadingCounts counts;
-  const std::vector<Beam> beams = inserter.cloudBeams(f.pose.translation(), f.points, &counts);
+  const std::vector<Beam> beams = ScanInserterInspection(inserter).cloudBeams(f.pose.translation(), f.points, &counts);
   std::size_t finite = 0;
   for (const Eigen::Vector3f& p : f.points) finite += p.allFinite();
   EXPECT_EQ(counts[ReadingKind::kHit], finite);
@@ -103,14 +104,14 @@ TEST(CloudInsertion, FastPathGivesTheReferenceTreeLeafForLeaf) {
     ScanInserter tracer(&scratch, options.insert);
     for (const Frame& f : frames) {
       ASSERT_TRUE(fast.insertPoints(f.pose.translation(), f.points).ok());
-      const std::vector<Beam> beams = tracer.cloudBeams(f.pose.translation(), f.points, nullptr);
+      const std::vector<Beam> beams = ScanInserterInspection(tracer).cloudBeams(f.pose.translation(), f.points, nullptr);
       // Per voxel: the sum, or where occupied wins the strongest occupied evidence, else the
       // strongest free.
       struct Combined {
         float sum = 0.0f, most = 0.0f, least = 0.0f;
       };
       std::unordered_map<octomap::OcTreeKey, Combined, octomap::OcTreeKey::KeyHash> evidence;
-      tracer.traceEvidence(f.pose.translation(), beams, tracer.model().halfAngleFor(0.0),
+      ScanInserterInspection(tracer).traceEvidence(f.pose.translation(), beams, tracer.model().halfAngleFor(0.0),
                            [&](const octomap::OcTreeKey& key, float value) {
                              Combined& c = evidence[key];
                              c.sum += value;

@@ -14,6 +14,7 @@
 #include "octo_slice_mapper/map_io.h"
 #include "octo_slice_mapper/mapper.h"
 #include "octo_slice_mapper/scan_inserter.h"
+#include "octo_slice_mapper/scan_inserter_inspection.h"
 #include "octo_slice_mapper/sim/session.h"
 #include "test_helpers.h"
 
@@ -35,7 +36,7 @@ void insertByUpdateNode(ScanInserter* tracer, octomap::OcTree* tree, const Scan&
       [](const octomap::OcTreeKey& a, const octomap::OcTreeKey& b) {
         return std::make_tuple(a[0], a[1], a[2]) < std::make_tuple(b[0], b[1], b[2]);
       });
-  tracer->traceEvidence(scan, [&](const octomap::OcTreeKey& key, float value) {
+  ScanInserterInspection(*tracer).traceEvidence(scan, [&](const octomap::OcTreeKey& key, float value) {
     Evidence& e = evidence[key];
     e.sum += value;
     e.most_occupied = std::max(e.most_occupied, value);

@@ -270,6 +270,32 @@ TEST_F(MappingSessionTest, ClearBoxMakesTheBoxUnknownAndDropsTheScansThatSawIt) 
   EXPECT_FALSE(session.clearBox(Eigen::Vector3d(-1e7, 0, 0), hi, &cleared, &error)) << "outside the octree";
 }
 
+// A live tuner's impossible values (p_free above the prior, an upside-down band) are refused
+// with the reason: the models and the band stay, and the map goes on as if nothing was asked.
+TEST_F(MappingSessionTest, ReconfigureRefusesImpossibleValuesAndKeepsTheModels) {
+  MappingSession session{MapperOptions(), SessionOptions()};
+  Mapper plain;
+  insertAll(&session, 0, 30);
+  for (std::size_t k = 0; k < 30; ++k) ASSERT_TRUE(plain.insert((*scans_)[k]).ok());
+  const std::uint64_t version = session.version();
+  MapperOptions bad_model = session.mapperOptions();
+  bad_model.insert.model.p_free = 0.9;
+  std::string error;
+  EXPECT_FALSE(session.reconfigure(bad_model, &error));
+  EXPECT_NE(error.find("inverse sensor model"), std::string::npos) << error;
+  MapperOptions bad_band = session.mapperOptions();
+  std::swap(bad_band.slice.min_z, bad_band.slice.max_z);
+  bad_band.slice.max_z -= 0.1;
+  error.clear();
+  EXPECT_FALSE(session.reconfigure(bad_band, &error));
+  EXPECT_NE(error.find("slice"), std::string::npos) << error;
+  EXPECT_EQ(session.version(), version) << "nothing changed";
+  EXPECT_EQ(session.mapperOptions().insert.model.p_free, MapperOptions().insert.model.p_free);
+  insertAll(&session, 30, 60);
+  for (std::size_t k = 30; k < 60; ++k) ASSERT_TRUE(plain.insert((*scans_)[k]).ok());
+  session.withMapper([&](Mapper& m) { test_support::expectSameTree(m.tree(), plain.tree()); });
+}
+
 }  // namespace
 
 namespace {
@@ -294,7 +320,8 @@ TEST(ClearBox, CutsThroughPrunedLeavesVoxelForVoxel) {
   Mapper mapper;
   ASSERT_TRUE(mapper.load(path, &error)) << error;
   const Eigen::Vector3d lo(0.31, 0.42, 0.11), hi(0.92, 1.33, 0.58);  // cuts through voxels: whole voxels go
-  const Mapper::Cleared cleared = mapper.clearBox(lo, hi);
+  Mapper::Cleared cleared;
+  ASSERT_TRUE(mapper.clearBox(lo, hi, &cleared, &error)) << error;
   EXPECT_GT(cleared.voxels, 0u);
   const octomap::OcTree& tree = mapper.tree();
   const octomap::OcTreeKey klo = tree.coordToKey(lo.x(), lo.y(), lo.z()), khi = tree.coordToKey(hi.x(), hi.y(), hi.z());

@@ -5,6 +5,7 @@
 #include <random>
 
 #include "octo_slice_mapper/scan_inserter.h"
+#include "octo_slice_mapper/scan_inserter_inspection.h"
 #include "octo_slice_mapper/sim/session.h"
 #include "test_helpers.h"
 
@@ -46,8 +47,8 @@ TEST(OctreeBatchUpdate, SimulatedScansMatchTheReference) {
     const Scan scan = session.scanAt(times[i], &rng);
     ASSERT_TRUE(inserter.insert(scan).ok());
     const double half_angle = reference_inserter.model().halfAngleFor(scan.angle_increment);
-    applyUpdatesOneByOne(&reference, reference_inserter.computeUpdates(scan.sensor_pose.translation(),
-                                                                       reference_inserter.beamsOf(scan, nullptr), half_angle));
+    applyUpdatesOneByOne(&reference, ScanInserterInspection(reference_inserter).computeUpdates(scan.sensor_pose.translation(),
+                                                                       ScanInserterInspection(reference_inserter).beamsOf(scan, nullptr), half_angle));
   }
   inserter.flush();
   expectSameTree(fast, reference);
@@ -74,8 +75,8 @@ TEST(OctreeBatchUpdate, TiltedScansMatchTheReferenceOnBothSidesOfTheLayerBound) 
       ASSERT_TRUE(result.ok());
       most_layers = std::max<std::size_t>(most_layers, result.touched.max[2] - result.touched.min[2] + 1);
       const double half_angle = reference_inserter.model().halfAngleFor(scan.angle_increment);
-      applyUpdatesOneByOne(&reference, reference_inserter.computeUpdates(scan.sensor_pose.translation(),
-                                                                         reference_inserter.beamsOf(scan, nullptr),
+      applyUpdatesOneByOne(&reference, ScanInserterInspection(reference_inserter).computeUpdates(scan.sensor_pose.translation(),
+                                                                         ScanInserterInspection(reference_inserter).beamsOf(scan, nullptr),
                                                                          half_angle));
     }
     const octomap::OcTreeKey origin = fast.coordToKey(level[0].sensor_pose.translation().x(),

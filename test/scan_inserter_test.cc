@@ -1,4 +1,5 @@
 #include "octo_slice_mapper/scan_inserter.h"
+#include "octo_slice_mapper/scan_inserter_inspection.h"
 
 #include <gtest/gtest.h>
 
@@ -244,8 +245,9 @@ TEST(ScanInserter, FreeValleyShortcutsGiveWhatTheModelGives) {
       Scan scan = makeScan(laserPoseOnRobot(unit(rng), unit(rng), 6.3 * unit(rng), pitch), -1.3f, step, ranges,
                            0.02f, 30.0f);
       std::vector<std::pair<octomap::OcTreeKey, float>> model, fast;
-      inserter.traceEvidence(scan, [&](const octomap::OcTreeKey& k, float v) { model.emplace_back(k, v); });
-      inserter.traceEvidence(
+      ScanInserterInspection(inserter).traceEvidence(
+          scan, [&](const octomap::OcTreeKey& k, float v) { model.emplace_back(k, v); });
+      ScanInserterInspection(inserter).traceEvidence(
           scan, [&](const octomap::OcTreeKey& k, float v) { fast.emplace_back(k, v); }, /*shortcuts=*/true);
       ASSERT_EQ(fast.size(), model.size()) << "scan " << n;
       for (std::size_t i = 0; i < model.size(); ++i) {

@@ -100,16 +100,17 @@ class Mapper {
   // Takes new sensor models and slice band from `wanted` (insert.model, insert.max_range,
   // slice.min_z/max_z, optimizer.model; the rest of `wanted` is ignored): the following scans
   // are inserted with them, and the slice is rebuilt for the band. The octree stays as it is.
-  // Throws std::invalid_argument for impossible values (the map in place is kept), and
-  // std::logic_error while the octree is lent.
-  void reconfigure(const MapperOptions& wanted);
+  // False with the reason for impossible values (a live tuner's input: the map and the models
+  // in place are kept); std::logic_error while the octree is lent (a caller's bug).
+  bool reconfigure(const MapperOptions& wanted, std::string* error);
   // Makes every voxel inside the box (map frame, m) unknown again, as octomap_server's clear_bbx;
   // the slice follows, and the kept scans with a beam crossing the box are dropped (else the
-  // global pass would bring it back). Refused (std::logic_error) while the octree is lent.
+  // global pass would bring it back). False with the reason for a box outside what the octree
+  // holds (nothing changed); std::logic_error while the octree is lent.
   struct Cleared {
     std::size_t voxels = 0, scans = 0;
   };
-  Cleared clearBox(const Eigen::Vector3d& min, const Eigen::Vector3d& max);
+  bool clearBox(const Eigen::Vector3d& min, const Eigen::Vector3d& max, Cleared* cleared, std::string* error);
   // Writes an optimized grid into the octree's slice-band voxels (but the obstacles beside the
   // pass, see PassBand) and refreshes the slice. `band`: passBand(), found once for all strips.
   void applyOptimized(const GridImage& grid, const PassBand& band);

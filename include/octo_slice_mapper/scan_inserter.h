@@ -117,32 +117,26 @@ class ScanInserter {
   // What the inserter holds besides the octree: the layer cache and the per-scan evidence window.
   std::size_t memoryBytes() const { return cache_.memoryBytes() + evidence_.memoryBytes(); }
 
-  // ---- Inspection: the fast path's intermediate results, for the tests, the benchmarks and the
-  // straightforward reference implementations that check it. None of these changes the map.
-  // The interpretation of a cloud as beams (InsertOptions' cloud_* rules), in a deterministic
-  // order.
+ private:
+  // The fast path's intermediate results are read through ScanInserterInspection (tests,
+  // benchmarks, reference implementations), not by the mapper's callers.
+  friend class ScanInserterInspection;
+
+  // A cloud's beams (InsertOptions' cloud_* rules), in a deterministic order.
   std::vector<Beam> cloudBeams(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points,
                                ReadingCounts* counts) const;
-  // The interpretation of a scan as beams.
+  // A scan's beams.
   std::vector<Beam> beamsOf(const Scan& scan, ReadingCounts* counts) const;
-
-  // Every (voxel, evidence) pair the model gives for a scan, each beam's once per voxel, before
-  // the beams are combined per voxel: what the fast path folds into the cache, for a
-  // straightforward reference implementation to check it.
-  // By default the model is evaluated for every voxel; with `shortcuts`, as the fast path does,
-  // not where a voxel is surely in the free valley (the pairs must be the same).
+  // Every (voxel, evidence) pair the model gives, each beam's once per voxel, before the beams
+  // are combined per voxel; with `shortcuts`, as the fast path traces.
   void traceEvidence(const Scan& scan, const std::function<void(const octomap::OcTreeKey&, float)>& fn,
-                     bool shortcuts = false);
-  // The same for any beams from `origin` (a cloud's, from cloudBeams).
+                     bool shortcuts);
   void traceEvidence(const Eigen::Vector3d& origin, const std::vector<Beam>& beams, double half_angle,
-                     const std::function<void(const octomap::OcTreeKey&, float)>& fn, bool shortcuts = false);
-
-  // Per-voxel log-odds updates of one scan before they are applied, in traversal order (also
-  // insertPoints' first step).
+                     const std::function<void(const octomap::OcTreeKey&, float)>& fn, bool shortcuts);
+  // Per-voxel log-odds updates of beams before they are applied, in traversal order.
   std::vector<KeyUpdate> computeUpdates(const Eigen::Vector3d& origin, const std::vector<Beam>& beams,
                                           double half_angle);
 
- private:
   InsertResult apply(std::vector<KeyUpdate> updates, InsertResult result);
   InsertResult insertIntoLayers(const Eigen::Vector3d& origin, const std::vector<Beam>& beams, double half_angle,
                                 InsertResult result);

@@ -291,7 +291,7 @@ std::size_t clearKeyBox(octomap::OcTree* tree, const octomap::OcTreeKey& lo, con
 
 }  // namespace
 
-void Mapper::reconfigure(const MapperOptions& wanted) {
+bool Mapper::reconfigure(const MapperOptions& wanted, std::string* error) {
   if (lent_) throw std::logic_error("mapper: reconfigure while the octree is lent");
   MapperOptions next = options_;
   next.insert.model = wanted.insert.model;
@@ -301,18 +301,26 @@ void Mapper::reconfigure(const MapperOptions& wanted) {
   next.optimizer.model = wanted.optimizer.model;
   followInsertion(&next);
   inserter_->flush();  // the new inserter starts with an empty cache: the octree must hold all
-  install(nullptr, next);
+  try {
+    install(nullptr, next);  // builds the new model and slice before it swaps anything in
+  } catch (const std::invalid_argument& e) {
+    *error = e.what();  // the options' constructors are their one validation
+    return false;
+  }
+  return true;
 }
 
-Mapper::Cleared Mapper::clearBox(const Eigen::Vector3d& min, const Eigen::Vector3d& max) {
+bool Mapper::clearBox(const Eigen::Vector3d& min, const Eigen::Vector3d& max, Cleared* out, std::string* error) {
   if (lent_) throw std::logic_error("mapper: clearBox while the octree is lent");
   octomap::OcTreeKey lo, hi;
   const Eigen::Vector3d a = min.cwiseMin(max), b = min.cwiseMax(max);
   if (!coordToKeySafe(*tree_, a.x(), a.y(), a.z(), &lo) || !coordToKeySafe(*tree_, b.x(), b.y(), b.z(), &hi)) {
-    throw std::invalid_argument("mapper: the box is outside what the octree holds");
+    *error = "the box is outside what the octree holds";
+    return false;
   }
   inserter_->flush();
-  Cleared cleared;
+  Cleared& cleared = *out;
+  cleared = Cleared{};
   cleared.voxels = clearKeyBox(tree_.get(), lo, hi);
   inserter_->cache().clear();  // flushed above: the octree holds all it had
   KeyBox box;
@@ -332,7 +340,7 @@ Mapper::Cleared Mapper::clearBox(const Eigen::Vector3d& min, const Eigen::Vector
     }
     return false;
   });
-  return cleared;
+  return true;
 }
 
 void Mapper::applyOptimized(const GridImage& grid, const PassBand& band) {

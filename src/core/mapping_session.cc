@@ -163,12 +163,7 @@ void MappingSession::reset() {
 bool MappingSession::reconfigure(const MapperOptions& wanted, std::string* error) {
   std::lock_guard<std::mutex> one(one_at_a_time_);
   Lock lock(this);
-  try {
-    mapper_.reconfigure(wanted);
-  } catch (const std::invalid_argument& e) {
-    *error = e.what();
-    return false;
-  }
+  if (!mapper_.reconfigure(wanted, error)) return false;
   options_version_++;
   version_++, changes_++;
   return true;
@@ -178,12 +173,7 @@ bool MappingSession::clearBox(const Eigen::Vector3d& min, const Eigen::Vector3d&
                               std::string* error) {
   std::lock_guard<std::mutex> one(one_at_a_time_);
   Lock lock(this);
-  try {
-    *cleared = mapper_.clearBox(min, max);
-  } catch (const std::invalid_argument& e) {
-    *error = e.what();
-    return false;
-  }
+  if (!mapper_.clearBox(min, max, cleared, error)) return false;
   version_++, changes_++;
   return true;
 }

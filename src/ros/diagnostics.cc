@@ -3,6 +3,7 @@
 #include <diagnostic_msgs/DiagnosticStatus.h>
 
 #include <cstdio>
+#include <sstream>
 
 namespace octo_slice_mapper {
 namespace ros_adapter {
@@ -11,6 +12,28 @@ std::uint64_t NodeCounters::skippedTotal() const {
   std::uint64_t total = 0;
   for (const auto& kv : skipped) total += kv.second;
   return total;
+}
+
+bool SkipLog::shouldLog(const std::string& reason, double now) {
+  auto [last, first] = last_.emplace(reason, now);
+  if (!first && now - last->second < period_) return false;
+  last->second = now;
+  return true;
+}
+
+std::string sessionSummary(const NodeCounters& c, const MapFigures& map, double wall_seconds) {
+  std::ostringstream out;
+  out << "scans_inserted=" << c.scans_inserted << " scans_skipped=" << c.skippedTotal()
+      << " time_jumps_back=" << c.time_jumps_back << " scans_held_for_order=" << c.scans_held_for_order
+      << " scans_taken_over=" << c.scans_taken_over << " clouds_inserted=" << c.clouds_inserted;
+  for (const auto& kv : c.skipped) out << " skipped_" << kv.first << '=' << kv.second;
+  out << " readings: " << map.readings;
+  if (!map.cloud_points.empty()) out << " cloud_points: " << map.cloud_points;
+  out << " voxels=" << map.voxels << " known_cells=" << map.known_cells;
+  out << " insert_ms_per_scan=" << (c.scans_inserted ? 1000.0 * c.scan_insert_seconds / c.scans_inserted : 0.0);
+  if (c.clouds_inserted) out << " insert_ms_per_cloud=" << 1000.0 * c.cloud_insert_seconds / c.clouds_inserted;
+  out << " wall_s=" << wall_seconds;
+  return out.str();
 }
 
 diagnostic_msgs::DiagnosticArray toDiagnostics(const NodeCounters& c, std::uint64_t skipped_before,

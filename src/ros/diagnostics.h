@@ -38,6 +38,29 @@ struct NodeCounters {
   std::uint64_t skippedTotal() const;
 };
 
+// Which skips get a log line: the first of each reason, then at most one per `period` seconds
+// per reason, so a flood of one kind never hides the first of another.
+class SkipLog {
+ public:
+  explicit SkipLog(double period = 5.0) : period_(period) {}
+  // `now`: seconds on any steady clock.
+  bool shouldLog(const std::string& reason, double now);
+
+ private:
+  double period_;
+  std::map<std::string, double> last_;
+};
+
+// What the session summary says about the map besides the counters (the mapper's figures).
+struct MapFigures {
+  std::string readings, cloud_points;  // ReadingCounts::summary(); cloud_points empty without clouds
+  std::size_t voxels = 0, known_cells = 0;
+};
+
+// The line the node logs at shutdown: the session's counts as /diagnostics has them (across
+// resets: the mapper's own count starts again at a reset), then the map's figures.
+std::string sessionSummary(const NodeCounters& counters, const MapFigures& map, double wall_seconds);
+
 // One status: OK, or WARN when scans were skipped since `skipped_before` (the total at the last
 // report), naming the reasons.
 diagnostic_msgs::DiagnosticArray toDiagnostics(const NodeCounters& counters, std::uint64_t skipped_before,

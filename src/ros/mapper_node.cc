@@ -3,7 +3,6 @@
 #include <tf2_eigen/tf2_eigen.h>
 
 #include <cstdio>
-#include <sstream>
 
 #include "octo_slice_mapper/map_io.h"
 #include "ros/laser_scan_conversion.h"
@@ -140,11 +139,7 @@ void MapperNode::skip(const std::string& reason, const std::string& message) {
   {
     std::lock_guard<std::mutex> lock(counters_mutex_);
     counters_.skipped[reason]++;
-    // One throttle per reason: a flood of one kind must not hide the first of another.
-    const ros::WallTime now = ros::WallTime::now();
-    auto [last, first] = last_logged_skip_.emplace(reason, now);
-    log = first || (now - last->second).toSec() >= 5.0;
-    if (log) last->second = now;
+    log = skip_log_.shouldLog(reason, ros::WallTime::now().toSec());
   }
   const char* what = reason.rfind("cloud_", 0) == 0 ? "point cloud" : "scan";
   if (log) ROS_WARN("skipping %s (%s): %s", what, reason.c_str(), message.c_str());
@@ -324,22 +319,14 @@ std::string MapperNode::summary() {
     std::lock_guard<std::mutex> lock(counters_mutex_);
     c = counters_;
   }
-  std::ostringstream out;
-  // The session's count, as /diagnostics has it (the mapper's starts again at a reset).
-  out << "scans_inserted=" << c.scans_inserted << " scans_skipped=" << c.skippedTotal()
-      << " time_jumps_back=" << c.time_jumps_back << " scans_held_for_order=" << c.scans_held_for_order
-      << " scans_taken_over=" << c.scans_taken_over << " clouds_inserted=" << c.clouds_inserted;
-  for (const auto& kv : c.skipped) out << " skipped_" << kv.first << '=' << kv.second;
-  session_.withMapper([&out](Mapper& mapper) {
-    out << " readings: " << mapper.stats().readings.summary();
-    if (mapper.stats().clouds_inserted) out << " cloud_points: " << mapper.stats().cloud_points.summary();
-    out << " voxels=" << mapper.tree().getNumLeafNodes()
-        << " known_cells=" << mapper.slice().knownCells();
+  MapFigures map;
+  session_.withMapper([&map](Mapper& mapper) {
+    map.readings = mapper.stats().readings.summary();
+    if (mapper.stats().clouds_inserted) map.cloud_points = mapper.stats().cloud_points.summary();
+    map.voxels = mapper.tree().getNumLeafNodes();
+    map.known_cells = mapper.slice().knownCells();
   });
-  out << " insert_ms_per_scan=" << (c.scans_inserted ? 1000.0 * c.scan_insert_seconds / c.scans_inserted : 0.0);
-  if (c.clouds_inserted) out << " insert_ms_per_cloud=" << 1000.0 * c.cloud_insert_seconds / c.clouds_inserted;
-  out << " wall_s=" << (ros::WallTime::now() - started_).toSec();
-  return out.str();
+  return sessionSummary(c, map, (ros::WallTime::now() - started_).toSec());
 }
 
 // Runs after ros::spin() returned; roscpp has shut rosconsole down by then, so print directly.

@@ -83,7 +83,7 @@ class MapperNode {
 
   mutable std::mutex counters_mutex_;  // guards the counters and what follows
   NodeCounters counters_;              // map sizes filled in when reported
-  std::map<std::string, ros::WallTime> last_logged_skip_;  // per skip reason
+  SkipLog skip_log_;
   std::uint64_t skipped_at_last_report_ = 0;
   ros::Time last_stamp_;
   ros::WallTime started_;

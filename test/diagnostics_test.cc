@@ -1,0 +1,56 @@
+// The node's counters as /diagnostics and the session summary give them, and which skips get a
+// log line (issue 19: one throttle per reason; the summary agreeing with /diagnostics after a
+// reset).
+#include "ros/diagnostics.h"
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+using namespace octo_slice_mapper::ros_adapter;
+
+namespace {
+
+std::string valueOf(const diagnostic_msgs::DiagnosticArray& array, const std::string& key) {
+  for (const auto& kv : array.status.at(0).values) {
+    if (kv.key == key) return kv.value;
+  }
+  return "(missing)";
+}
+
+// A flood of one reason logs once per period, and never keeps another reason's first skip quiet.
+TEST(SkipLog, EachReasonHasItsOwnThrottle) {
+  SkipLog log(5.0);
+  EXPECT_TRUE(log.shouldLog("bad_ranges", 100.0));
+  for (double t = 100.1; t < 104.9; t += 0.1) EXPECT_FALSE(log.shouldLog("bad_ranges", t));
+  EXPECT_TRUE(log.shouldLog("zero_stamp", 102.0)) << "the first of another reason, within the flood";
+  EXPECT_FALSE(log.shouldLog("zero_stamp", 103.0));
+  EXPECT_TRUE(log.shouldLog("bad_ranges", 105.0)) << "a period after its last line";
+  EXPECT_FALSE(log.shouldLog("bad_ranges", 106.0));
+  EXPECT_TRUE(log.shouldLog("zero_stamp", 107.5));
+}
+
+// After a reset the mapper's own count starts again; the summary takes the session's, as
+// /diagnostics does, so the two never disagree.
+TEST(SessionSummary, CountsAsDiagnosticsDoes) {
+  NodeCounters c;
+  c.scans_received = 52;
+  c.scans_inserted = 50;  // 40 before a reset, 10 after
+  c.skipped["zero_stamp"] = 2;
+  c.scan_insert_seconds = 0.025;
+  MapFigures map;
+  map.readings = "hit=900 no_return=100";
+  map.voxels = 1234;
+  map.known_cells = 567;
+  const std::string line = sessionSummary(c, map, 12.5);
+  const diagnostic_msgs::DiagnosticArray diagnostics = toDiagnostics(c, 0, "/mapper_node", ros::Time(1.0));
+  EXPECT_NE(line.find("scans_inserted=" + valueOf(diagnostics, "scans_inserted") + " "), std::string::npos) << line;
+  EXPECT_NE(line.find("scans_skipped=" + valueOf(diagnostics, "scans_skipped") + " "), std::string::npos) << line;
+  EXPECT_NE(line.find("skipped_zero_stamp=" + valueOf(diagnostics, "skipped_zero_stamp")), std::string::npos) << line;
+  EXPECT_NE(line.find("readings: hit=900 no_return=100 voxels=1234 known_cells=567"), std::string::npos) << line;
+  EXPECT_NE(line.find("insert_ms_per_scan=0.5"), std::string::npos) << line;
+  EXPECT_EQ(line.find("cloud_points"), std::string::npos) << "no clouds, no cloud figures";
+  EXPECT_EQ(diagnostics.status.at(0).level, diagnostic_msgs::DiagnosticStatus::WARN) << "skips since the last report";
+}
+
+}  // namespace
