@@ -197,6 +197,8 @@ TEST(CloudInsertion, NonFinitePointsAreCountedPerReasonAndLoseNothing) {
   ASSERT_TRUE(result.ok());
   EXPECT_EQ(result.readings[ReadingKind::kNaN], 999998u);
   EXPECT_EQ(result.readings[ReadingKind::kInfinite], 1u);
+  EXPECT_EQ(result.beams_outside_octree, 1u) << "the 1e30 m point: dropped, and counted";
+  EXPECT_EQ(mapper.stats().beams_outside_octree, 1u);
   EXPECT_EQ(mapper.tree().getNumLeafNodes(), leaves) << "bad points changed the map";
 }
 

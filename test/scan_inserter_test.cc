@@ -215,6 +215,8 @@ TEST(ScanInserter, CoordinatesOutsideTheTreeAreDroppedSafely) {
       inserter.insert(makeScan(laserPoseOnRobot(0, 0, 0), -1.0f, 0.01f, ranges, 0.02f, std::numeric_limits<float>::max()));
   inserter.flush();
   ASSERT_TRUE(result.ok());
+  EXPECT_EQ(result.beams_outside_octree, 1u) << "dropped, and counted (issue 20)";
+  EXPECT_EQ(result.readings[ReadingKind::kHit], 201u);
   const octomap::OcTreeNode* wall = tree.search(2.10, 0.0, 0.26);
   ASSERT_NE(wall, nullptr);
   EXPECT_TRUE(tree.isNodeOccupied(wall));

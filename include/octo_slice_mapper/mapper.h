@@ -56,6 +56,7 @@ struct MapperStats {
   std::uint64_t clouds_rejected = 0;  // whole clouds refused (origin outside the octree, ...)
   ReadingCounts cloud_points;         // all points of inserted clouds, per reason
   std::uint64_t voxel_updates = 0;    // of scans and clouds
+  std::uint64_t beams_outside_octree = 0;  // of scans and clouds, dropped (InsertResult)
 };
 
 // Works out a depth frame's updates away from the Mapper (on another thread, outside the

@@ -50,6 +50,9 @@ struct InsertOptions {
 struct InsertResult {
   ReadingCounts readings;          // per-reason reading counts of this scan
   std::uint64_t voxels_updated = 0;
+  // Beams whose end lies beyond what the octree holds (a reading of 3e38 m, a cloud point at
+  // 1e30): dropped whole, nothing traced (their reading is still counted by its kind).
+  std::uint64_t beams_outside_octree = 0;
   KeyBox touched;                  // bounding box of the keys the scan updated (changed or not)
   std::vector<octomap::OcTreeKey> updated_keys;  // the keys whose log-odds changed (some of the
                                                  // general path's may not have)
@@ -176,6 +179,7 @@ class ScanInserter {
   std::vector<Ray> rays_;               // the current scan's rays (prepareBeams)
   std::vector<std::size_t> ray_begin_;  // beam b's are rays_[ray_begin_[b], ray_begin_[b + 1])
   std::size_t max_visits_ = 0;          // bounds how many voxels the rays visit
+  std::uint64_t beams_outside_ = 0;     // the current scan's beams ending outside the octree
   std::vector<KeyUpdate> beam_evidence_;  // a fanned beam's evidence before it is combined
   std::optional<InverseSensorModel::ConeTable> cone_;  // for the last half-angle seen
 

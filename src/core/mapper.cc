@@ -86,6 +86,7 @@ InsertResult Mapper::record(InsertResult result, bool cloud) {
   (cloud ? stats_.clouds_inserted : stats_.scans_inserted)++;
   (cloud ? stats_.cloud_points : stats_.readings) += result.readings;
   stats_.voxel_updates += result.voxels_updated;
+  stats_.beams_outside_octree += result.beams_outside_octree;
   return result;
 }
 

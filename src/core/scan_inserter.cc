@@ -83,6 +83,7 @@ PreparedCloud ScanInserter::prepareCloud(const Eigen::Vector3d& origin, const st
   const std::vector<Beam> beams = cloudBeams(origin, points, &prepared.result.readings);
   evidence_.setCombining(options_.cloud_combining);
   prepared.updates = computeUpdates(origin, beams, half_angle);
+  prepared.result.beams_outside_octree = beams_outside_;
   evidence_.setCombining(options_.combining);
   return prepared;
 }
@@ -258,6 +259,7 @@ KeyBox ScanInserter::prepareBeams(const Eigen::Vector3d& origin, const octomap::
   rays_.clear();
   ray_begin_.assign(1, 0);
   max_visits_ = 0;
+  beams_outside_ = 0;
   KeyBox box;
   box.add(origin_key);
   for (const Beam& beam : beams) {
@@ -282,6 +284,7 @@ KeyBox ScanInserter::prepareBeams(const Eigen::Vector3d& origin, const octomap::
       }
     } else {
       rays_.resize(first);
+      ++beams_outside_;
     }
     ray_begin_.push_back(rays_.size());
   }
@@ -527,6 +530,7 @@ InsertResult ScanInserter::insertIntoLayers(const Eigen::Vector3d& origin, const
   octomap::OcTreeKey origin_key;
   if (!coordToKeySafe(*tree_, origin.x(), origin.y(), origin.z(), &origin_key)) return result;
   const KeyBox box = prepareBeams(origin, origin_key, beams, std::tan(half_angle));
+  result.beams_outside_octree = beams_outside_;
   if (!evidence_.begin(box, max_visits_)) {
     return apply(sparseUpdates(origin, origin_key, beams, half_angle), result);  // too large a box
   }

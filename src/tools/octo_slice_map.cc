@@ -284,7 +284,7 @@ int main(int argc, char** argv) {
     json << (k ? ", " : "") << '"' << osm::readingKindName(static_cast<osm::ReadingKind>(k))
          << "\": " << stats.readings.count[k];
   }
-  json << "}, \"skipped_scans\": {";
+  json << "}, \"beams_outside_octree\": " << stats.beams_outside_octree << ", \"skipped_scans\": {";
   bool first = true;
   for (const auto& kv : skipped_scans) json << (first ? "" : ", ") << jsonString(kv.first) << ": " << kv.second, first = false;
   json << "}, \"bad_lines\": " << bad_lines << ", \"log_error\": " << jsonString(end_error)
