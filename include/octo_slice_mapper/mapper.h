@@ -116,8 +116,9 @@ class Mapper {
   // pass, see PassBand) and refreshes the slice. `band`: passBand(), found once for all strips.
   void applyOptimized(const GridImage& grid, const PassBand& band);
   PassBand passBand() const;
-  // Cells of `frame` (the slice as gridImageOf draws it) occupied there while no voxel of the
-  // pass's layers in their column is: other sensors' obstacles, which the optimized map shows too.
+  // Cells of `frame` (the slice as gridImageOf draws it) whose column has an occupied voxel in a
+  // band layer the pass does not speak for: other sensors' obstacles, which the optimized map
+  // shows too. The same cells as obstaclesBesidePass gives the saved optimized set.
   std::vector<std::size_t> cellsBesidePass(const GridImage& frame) const;
   // Brings the octree up to date and lends it (see MapSnapshot) until endSnapshot(). Reading the
   // lent octree from another thread is safe while this thread keeps inserting; reset(), load()

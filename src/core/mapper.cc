@@ -95,35 +95,39 @@ PassBand Mapper::passBand() const {
 }
 
 std::vector<std::size_t> Mapper::cellsBesidePass(const GridImage& frame) const {
+  // The saved optimized set's rule (obstaclesBesidePass): a column with an occupied voxel in a band
+  // layer the pass does not speak for, read through the insertion cache (the tree lags behind it).
   std::vector<std::size_t> cells;
   const PassBand band = passBand();
   if (band.scans_lo > band.scans_hi) return cells;  // no kept scans: no pass
-  const unsigned lo = std::max(band.scans_lo, band.band_lo), hi = std::min(band.scans_hi, band.band_hi);
+  const float occupied = tree_->getOccupancyThresLog();
   const LayerCache& cache = inserter_->cache();
   for (int j = 0; j < frame.height; ++j) {
     for (int i = 0; i < frame.width; ++i) {
-      if (frame.at(i, j) <= 50) continue;
+      // The slice shows a column's most occupied voxel when it is occupied: below 50, none is.
+      if (frame.at(i, j) < 50) continue;
       octomap::OcTreeKey key;
       if (!coordToKeySafe(*tree_, frame.origin_x + (i + 0.5) * frame.resolution,
                           frame.origin_y + (j + 0.5) * frame.resolution, 0.0, &key)) {
         continue;
       }
-      bool seen_by_pass = false;  // an obstacle in the layers the pass speaks for
-      for (unsigned kz = lo; kz <= hi && !seen_by_pass; ++kz) {
+      bool beside = false;
+      for (unsigned kz = band.band_lo; kz <= band.band_hi && !beside; ++kz) {
+        if (band.passSpeaksFor(kz)) continue;
         key[2] = static_cast<octomap::key_type>(kz);
         float value = 0.0f;
         switch (cache.lookup(key[0], key[1], kz, &value)) {
           case LayerCache::Lookup::kKnown:
-            seen_by_pass = value >= 0.0f;
+            beside = value >= occupied;
             break;
           case LayerCache::Lookup::kUnknown:
             break;
           case LayerCache::Lookup::kNotCached:
-            if (const octomap::OcTreeNode* node = tree_->search(key)) seen_by_pass = node->getLogOdds() >= 0.0f;
+            if (const octomap::OcTreeNode* node = tree_->search(key)) beside = node->getLogOdds() >= occupied;
             break;
         }
       }
-      if (!seen_by_pass) cells.push_back(std::size_t(j) * frame.width + i);
+      if (beside) cells.push_back(std::size_t(j) * frame.width + i);
     }
   }
   return cells;
