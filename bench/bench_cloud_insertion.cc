@@ -1,7 +1,7 @@
 // bench_cloud_insertion: depth-camera frames into the octree (issue 22), against OctoMap's own
 // methods, in one process.
 //
-//   bench_cloud_insertion [--frames N] [--resolution M]
+//   bench_cloud_insertion [--frames N] [--resolution M] [--ours-only] [--scene desk|room]
 //
 // Frames come from the simulated Kinect-class camera (sim/depth_camera.h: 640 x 480, 57 x 43 deg,
 // 0.5-4.5 m, the Kinect's depth noise) in the simulated office room, in two scenes: "desk" (the
@@ -18,6 +18,7 @@
 #include <octomap/OcTree.h>
 #include <sensor_msgs/PointCloud2.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -81,13 +82,15 @@ int main(int argc, char** argv) {
   int frames_per_scene = 10;
   double resolution = 0.05;
   bool ours_only = false;  // for profiling
+  std::string only_scene;  // "" = both
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "--frames" && i + 1 < argc) frames_per_scene = std::max(1, std::atoi(argv[++i]));
     else if (arg == "--resolution" && i + 1 < argc) resolution = std::atof(argv[++i]);
     else if (arg == "--ours-only") ours_only = true;
+    else if (arg == "--scene" && i + 1 < argc) only_scene = argv[++i];
     else {
-      std::fprintf(stderr, "usage: bench_cloud_insertion [--frames N] [--resolution M]\n");
+      std::fprintf(stderr, "usage: bench_cloud_insertion [--frames N] [--resolution M] [--ours-only] [--scene desk|room]\n");
       return 2;
     }
   }
@@ -99,6 +102,10 @@ int main(int argc, char** argv) {
   std::vector<Scene> scenes = {
       {"desk", framesOf(scene, Eigen::Vector3d(2.0, 1.8, 1.0), 0.0, 0.7, frames_per_scene)},
       {"room", framesOf(scene, Eigen::Vector3d(0.3, 0.3, 0.30), 0.7, 0.05, frames_per_scene)}};
+  if (!only_scene.empty()) {
+    scenes.erase(std::remove_if(scenes.begin(), scenes.end(), [&](const Scene& s) { return only_scene != s.name; }),
+                 scenes.end());
+  }
   const int repeats = ours_only ? 20 : 1;
   std::printf("== depth frames, 640 x 480, %.2f m, %d frames per scene (median ms per frame)\n", resolution,
               frames_per_scene);
