@@ -93,6 +93,119 @@ InsertResult ScanInserter::applyCloud(PreparedCloud prepared) {
   return apply(std::move(prepared.updates), std::move(prepared.result));
 }
 
+namespace {
+
+// Points that end in one voxel: its key (x | y << 16 | z << 32), their sum and their count.
+struct EndVoxel {
+  std::uint64_t key;
+  Eigen::Vector3d sum;
+  std::uint64_t n;
+};
+struct EndVoxels {
+  std::vector<EndVoxel> voxels;          // in the order their voxels are first met
+  std::vector<Eigen::Vector3d> outside;  // finite points outside the octree's keys, in order
+  ReadingCounts non_finite;              // nan / inf
+};
+
+// Runs of consecutive points ending in the same voxel, from points[begin, end). The current run is
+// summed in registers; a finished one joins one of the last few stored runs of its voxel if there
+// is one (depth noise makes neighbouring pixels alternate between two voxels), else is stored.
+void runsOf(const std::vector<Eigen::Vector3f>& points, std::size_t begin, std::size_t end, double inverse,
+            double centre, EndVoxels* out) {
+  constexpr std::size_t kRecentRuns = 4;
+  out->voxels.reserve((end - begin) / 8);
+  std::uint64_t run_key = ~std::uint64_t{0}, run_n = 0;
+  double run_x = 0.0, run_y = 0.0, run_z = 0.0;  // locals, not a struct: they stay in registers
+  const auto store = [out](const EndVoxel& done) {
+    std::vector<EndVoxel>& runs = out->voxels;
+    const std::size_t stored = runs.size();
+    for (std::size_t back = 1; back <= kRecentRuns && back <= stored; ++back) {
+      EndVoxel& r = runs[stored - back];
+      if (r.key == done.key) {
+        r.sum += done.sum;
+        r.n += done.n;
+        return;
+      }
+    }
+    runs.push_back(done);
+  };
+  for (std::size_t i = begin; i < end; ++i) {
+    const Eigen::Vector3f& p = points[i];
+    if (!p.allFinite()) {
+      out->non_finite[p.array().isNaN().any() ? ReadingKind::kNaN : ReadingKind::kInfinite]++;
+      continue;
+    }
+    const Eigen::Vector3d q = p.cast<double>();
+    const double sx = q.x() * inverse + centre, sy = q.y() * inverse + centre, sz = q.z() * inverse + centre;
+    if (!(sx >= 0.0 && sy >= 0.0 && sz >= 0.0 && sx < 2.0 * centre && sy < 2.0 * centre && sz < 2.0 * centre)) {
+      out->outside.push_back(q);
+      continue;
+    }
+    // Through int64: a double to uint64 conversion is a branchy sequence on x86-64.
+    const std::uint64_t key = std::uint64_t(std::int64_t(sx)) | std::uint64_t(std::int64_t(sy)) << 16 |
+                              std::uint64_t(std::int64_t(sz)) << 32;
+    if (key == run_key) {
+      run_x += q.x(), run_y += q.y(), run_z += q.z();
+      run_n++;
+      continue;
+    }
+    if (run_n > 0) store({run_key, Eigen::Vector3d(run_x, run_y, run_z), run_n});
+    run_key = key, run_n = 1;
+    run_x = q.x(), run_y = q.y(), run_z = q.z();
+  }
+  if (run_n > 0) store({run_key, Eigen::Vector3d(run_x, run_y, run_z), run_n});
+}
+
+// Points by the voxel (of an octree of this resolution and depth) they end in. An organized
+// cloud's neighbours mostly share a voxel: runs of them are merged first (in chunks on every core,
+// joined in order), then the runs through an open-addressing table, in first-seen order.
+EndVoxels groupByEndVoxel(const std::vector<Eigen::Vector3f>& points, double resolution, unsigned depth) {
+  // OctoMap's coordToKey (floor(coordinate / resolution) + the tree's centre key), inline, as
+  // floor(coordinate / resolution + centre): non-negative where in range, so truncation is the
+  // floor, without a call to floor() per coordinate (which more than doubled the time).
+  const double inverse = 1.0 / resolution;
+  const double centre = static_cast<double>(1 << (depth - 1));
+  const unsigned workers = workersFor(0, points.size(), std::size_t(1) << 15);
+  std::vector<EndVoxels> parts(workers);
+  forEachChunk(points.size(), workers, [&](std::size_t begin, std::size_t end, unsigned w) {
+    runsOf(points, begin, end, inverse, centre, &parts[w]);
+  });
+  EndVoxels grouped;
+  std::size_t run_count = 0;
+  for (const EndVoxels& part : parts) {
+    grouped.non_finite += part.non_finite;
+    grouped.outside.insert(grouped.outside.end(), part.outside.begin(), part.outside.end());
+    run_count += part.voxels.size();
+  }
+  unsigned bits = 4;
+  while ((std::size_t(1) << bits) < 2 * run_count) ++bits;
+  std::vector<std::int32_t> table(std::size_t(1) << bits, -1);
+  const std::size_t mask = table.size() - 1;
+  std::vector<EndVoxel>& voxels = grouped.voxels;
+  voxels.reserve(run_count / 4);
+  for (const EndVoxels& part : parts) {
+    for (const EndVoxel& run : part.voxels) {
+      std::size_t slot = static_cast<std::size_t>((run.key * 0x9E3779B97F4A7C15ull) >> (64 - bits));
+      for (;; slot = (slot + 1) & mask) {
+        if (table[slot] < 0) {
+          table[slot] = static_cast<std::int32_t>(voxels.size());
+          voxels.push_back(run);
+          break;
+        }
+        EndVoxel& g = voxels[static_cast<std::size_t>(table[slot])];
+        if (g.key == run.key) {
+          g.sum += run.sum;
+          g.n += run.n;
+          break;
+        }
+      }
+    }
+  }
+  return grouped;
+}
+
+}  // namespace
+
 std::vector<Beam> ScanInserter::cloudBeams(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points,
                                            ReadingCounts* counts) const {
   ReadingCounts ignored;
@@ -123,106 +236,11 @@ std::vector<Beam> ScanInserter::cloudBeams(const Eigen::Vector3d& origin, const 
     }
     return beams;
   }
-  // Points by end voxel. An organized cloud's neighbours mostly share a voxel: runs of them are
-  // merged first (in chunks on every core, joined in order), then the runs through an
-  // open-addressing table, in first-seen order.
-  struct Group {
-    std::uint64_t key;
-    Eigen::Vector3d sum;
-    std::uint64_t n;
-  };
-  struct Part {
-    std::vector<Group> runs;
-    std::vector<Eigen::Vector3d> outside;  // points outside the octree's keys
-    ReadingCounts counts;                  // of the non-finite points
-  };
-  // OctoMap's coordToKey (floor(coordinate / resolution) + the tree's centre key), inline, as
-  // floor(coordinate / resolution + centre): non-negative where in range, so truncation is the
-  // floor, without a call to floor() per coordinate (which more than doubled the time).
-  const double inverse = 1.0 / tree_->getResolution();
-  const double centre = static_cast<double>(1 << (tree_->getTreeDepth() - 1));
-  const unsigned workers = workersFor(0, points.size(), std::size_t(1) << 15);
-  constexpr std::size_t kRecentRuns = 4;
-  std::vector<Part> parts(workers);
-  forEachChunk(points.size(), workers, [&](std::size_t begin, std::size_t end, unsigned w) {
-    Part& part = parts[w];
-    part.runs.reserve((end - begin) / 8);
-    // The current run is summed in registers; a finished one joins one of the last few stored
-    // runs of its voxel if there is one (depth noise makes neighbouring pixels alternate between
-    // two voxels), else is stored.
-    std::uint64_t run_key = ~std::uint64_t{0}, run_n = 0;
-    double run_x = 0.0, run_y = 0.0, run_z = 0.0;  // locals, not a struct: they stay in registers
-    const auto store = [&part](const Group& done) {
-      const std::size_t stored = part.runs.size();
-      for (std::size_t back = 1; back <= kRecentRuns && back <= stored; ++back) {
-        Group& r = part.runs[stored - back];
-        if (r.key == done.key) {
-          r.sum += done.sum;
-          r.n += done.n;
-          return;
-        }
-      }
-      part.runs.push_back(done);
-    };
-    for (std::size_t i = begin; i < end; ++i) {
-      const Eigen::Vector3f& p = points[i];
-      if (!p.allFinite()) {
-        part.counts[p.array().isNaN().any() ? ReadingKind::kNaN : ReadingKind::kInfinite]++;
-        continue;
-      }
-      const Eigen::Vector3d q = p.cast<double>();
-      const double sx = q.x() * inverse + centre, sy = q.y() * inverse + centre, sz = q.z() * inverse + centre;
-      if (!(sx >= 0.0 && sy >= 0.0 && sz >= 0.0 && sx < 2.0 * centre && sy < 2.0 * centre && sz < 2.0 * centre)) {
-        part.outside.push_back(q);
-        continue;
-      }
-      // Through int64: a double to uint64 conversion is a branchy sequence on x86-64.
-      const std::uint64_t key = std::uint64_t(std::int64_t(sx)) | std::uint64_t(std::int64_t(sy)) << 16 |
-                                std::uint64_t(std::int64_t(sz)) << 32;
-      if (key == run_key) {
-        run_x += q.x(), run_y += q.y(), run_z += q.z();
-        run_n++;
-        continue;
-      }
-      if (run_n > 0) store({run_key, Eigen::Vector3d(run_x, run_y, run_z), run_n});
-      run_key = key, run_n = 1;
-      run_x = q.x(), run_y = q.y(), run_z = q.z();
-    }
-    if (run_n > 0) store({run_key, Eigen::Vector3d(run_x, run_y, run_z), run_n});
-  });
-  std::size_t run_count = 0;
-  for (const Part& part : parts) {
-    c += part.counts;
-    for (const Eigen::Vector3d& q : part.outside) beamTo(q, 1);  // its own beam (dropped where it leaves)
-    run_count += part.runs.size();
-  }
-  // Runs of the same voxel merged through an open-addressing table, in first-seen order.
-  unsigned bits = 4;
-  while ((std::size_t(1) << bits) < 2 * run_count) ++bits;
-  std::vector<std::int32_t> table(std::size_t(1) << bits, -1);
-  const std::size_t mask = table.size() - 1;
-  std::vector<Group> groups;
-  groups.reserve(run_count / 4);
-  for (const Part& part : parts) {
-    for (const Group& run : part.runs) {
-      std::size_t slot = static_cast<std::size_t>((run.key * 0x9E3779B97F4A7C15ull) >> (64 - bits));
-      for (;; slot = (slot + 1) & mask) {
-        if (table[slot] < 0) {
-          table[slot] = static_cast<std::int32_t>(groups.size());
-          groups.push_back(run);
-          break;
-        }
-        Group& g = groups[static_cast<std::size_t>(table[slot])];
-        if (g.key == run.key) {
-          g.sum += run.sum;
-          g.n += run.n;
-          break;
-        }
-      }
-    }
-  }
-  beams.reserve(beams.size() + groups.size());
-  for (const Group& g : groups) beamTo(g.sum / static_cast<double>(g.n), g.n);
+  const EndVoxels grouped = groupByEndVoxel(points, tree_->getResolution(), tree_->getTreeDepth());
+  c += grouped.non_finite;
+  for (const Eigen::Vector3d& q : grouped.outside) beamTo(q, 1);  // its own beam (dropped where it leaves)
+  beams.reserve(beams.size() + grouped.voxels.size());
+  for (const EndVoxel& g : grouped.voxels) beamTo(g.sum / static_cast<double>(g.n), g.n);
   return beams;
 }
 
@@ -318,25 +336,118 @@ void ScanInserter::freeStretch(const Ray& ray, const Eigen::Vector3d& axis, doub
   *s_hi = off_axis_free_until - h;
 }
 
+namespace {
+
+// The inverse model's evidence for the voxels of one beam's cone, from where a voxel's centre
+// lies: `along` the axis and sqrt(lateral_sq) off it. The per-beam constants are worked out once.
+class BeamEvidence {
+ public:
+  BeamEvidence(const InverseSensorModel& model, const InverseSensorModel::ConeTable& cone, const Beam& beam,
+               double half_angle, double tan_full, double resolution)
+      : model_(model),
+        cone_(cone),
+        beam_(beam),
+        tan_half_(cone.tanHalf()),
+        tan_full_(tan_full),
+        l_free_(model.logOddsFree()),
+        // On the axis, closer than this the model is exactly the free valley (see hitUpdate).
+        pure_free_until_(beam.length - model.pureFreeMargin(beam.length)),
+        // Off the axis, where the weight is still 1, the free valley ends sooner (sigma widens).
+        off_axis_free_until_(beam.length +
+                             InverseSensorModel::kPureFreeBelow * model.sigmaAt(beam.length, half_angle, half_angle)) {
+    // One return is one obstacle somewhere across the cone: a voxel off the axis holds its width's
+    // share of a cross-section wider than a voxel (the axis' voxels hold the most likely part).
+    const double cross_section = 2.0 * beam.length * tan_half_;
+    off_axis_share_ = cross_section > resolution ? resolution / cross_section : 1.0;
+  }
+  double pureFreeUntil() const { return pure_free_until_; }
+  double offAxisFreeUntil() const { return off_axis_free_until_; }
+
+  // The evidence (0: none, outside the cone). `axis_ray`: the voxel is one the beam's axis crosses.
+  __attribute__((always_inline)) float at(double along, double lateral_sq, bool axis_ray) const {
+    along = std::max(0.0, along);
+    // The voxels the axis passes through are judged on the axis; the others by the angle of
+    // their centre (judging them by their part nearest the axis, a beam grazing a wall cleared
+    // wall voxels it never entered, issue 18).
+    const bool on_axis = axis_ray || along <= 0.0;
+    if (on_axis && along < pure_free_until_) return l_free_;
+    double q = 0.0;  // tan(angle off the axis) / tan(half-angle)
+    if (!on_axis) {
+      // tan of the angle between the axis and the voxel's centre; the model only when the voxel
+      // is in the cone's taper or near the return.
+      // (Compared as products: a division only for the voxels that need the model.)
+      const double reach = std::sqrt(lateral_sq);
+      if (reach >= tan_half_ * along) return 0.0f;  // outside the cone
+      if (reach <= tan_full_ * along && along < off_axis_free_until_) return l_free_;
+      q = reach / (along * tan_half_);
+    }
+    return beam_.hit ? model_.hitUpdateInCone(beam_.length, along, q, cone_, on_axis ? 1.0 : off_axis_share_)
+                     : model_.noReturnUpdateInCone(beam_.length, along, q, cone_);
+  }
+
+ private:
+  const InverseSensorModel& model_;
+  const InverseSensorModel::ConeTable& cone_;
+  const Beam& beam_;
+  double tan_half_, tan_full_;
+  float l_free_;
+  double pure_free_until_, off_axis_free_until_, off_axis_share_ = 1.0;
+};
+
+// Voxel centres relative to a sensor origin, as OcTree::keyToCoord gives them, with the tree's
+// constants in registers (through the tree they are reloaded per voxel).
+class VoxelCentres {
+ public:
+  VoxelCentres(const octomap::OcTree& tree, const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key)
+      : resolution_(tree.getResolution()),
+        center_(1 << (tree.getTreeDepth() - 1)),  // the key of coordinate 0 (OctoMap's tree_max_val)
+        origin_(origin),
+        dz_(tree.keyToCoord(origin_key[2]) - origin.z()) {}
+
+  // Along `direction` and the squared distance off it (from its nearest point ahead of the origin).
+  __attribute__((always_inline)) void place(const octomap::OcTreeKey& key, const Eigen::Vector3d& direction,
+                                            double* along, double* lateral_sq) const {
+    // The centre as OcTree::keyToCoord(key) gives it (a point3d: float coordinates).
+    const Eigen::Vector3d v(double(float(coord(key[0]))) - origin_.x(), double(float(coord(key[1]))) - origin_.y(),
+                            double(float(coord(key[2]))) - origin_.z());
+    *along = v.dot(direction);
+    *lateral_sq = (v - std::max(0.0, *along) * direction).squaredNorm();
+  }
+  // The same for a voxel of the origin's layer and a beam in the plane: `across` is the in-plane
+  // normal of the axis, and the centre's height above the origin is the layer's.
+  __attribute__((always_inline)) void placeInLayer(const octomap::OcTreeKey& key, const Beam& beam, double* along,
+                                                   double* lateral_sq) const {
+    const double vx = coord(key[0]) - origin_.x(), vy = coord(key[1]) - origin_.y();
+    *along = vx * beam.direction.x() + vy * beam.direction.y();
+    const double lateral = vx * beam.across.x() + vy * beam.across.y();
+    *lateral_sq = *along > 0.0 ? lateral * lateral + dz_ * dz_ : vx * vx + vy * vy + dz_ * dz_;
+  }
+
+ private:
+  double coord(octomap::key_type k) const { return (double(int(k) - center_) + 0.5) * resolution_; }
+  double resolution_;
+  int center_;
+  Eigen::Vector3d origin_;
+  double dz_;
+};
+
+}  // namespace
+
 // Second pass: every voxel each beam kept by prepareBeams reaches, with the model's evidence for it, handed to
 // `sink(key, value)` (zero evidence is not handed on).
 template <typename Sink>
 void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
                               const std::vector<Beam>& beams, double half_angle, Sink&& sink, bool shortcuts) {
   if (!cone_ || cone_->halfAngle() != half_angle) cone_.emplace(model_, half_angle);
-  const InverseSensorModel::ConeTable& cone = *cone_;
-  const double tan_half = cone.tanHalf();
   const double tan_full = std::tan(model_.fullWeightAngle(half_angle));
   // A voxel's centre is at most half its diagonal from any point inside it.
   const double half_diagonal = 0.5 * std::sqrt(3.0) * tree_->getResolution();
   const float l_free = model_.logOddsFree();
-  const double resolution = tree_->getResolution();
-  const int center = 1 << (tree_->getTreeDepth() - 1);  // the key of coordinate 0 (OctoMap's tree_max_val)
-  bool axis_ray = false;  // whether the ray being walked is its beam's axis
+  const VoxelCentres centres(*tree_, origin, origin_key);
   for (std::size_t b = 0; b < beams.size(); ++b) {
     if (ray_begin_[b] == ray_begin_[b + 1]) continue;  // left the octree
     const Beam& beam = beams[b];
-    const double length = traceLength(beam);
+    const BeamEvidence evidence(model_, *cone_, beam, half_angle, tan_full, tree_->getResolution());
     // A beam's fanned rays cross some voxels of the axis and of each other: its evidence is
     // gathered first, so that each voxel gets the beam's evidence once (the strongest occupied,
     // else the strongest free) however many of its rays cross it.
@@ -350,94 +461,46 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
         sink(key, value * weight);
       }
     };
-    // On the axis, closer than this the model is exactly the free valley (see hitUpdate).
-    const double pure_free_until = beam.length - model_.pureFreeMargin(beam.length);
-    // Off the axis, where the weight is still 1, the free valley ends sooner (sigma widens).
-    const double off_axis_free_until =
-        beam.length + InverseSensorModel::kPureFreeBelow * model_.sigmaAt(beam.length, half_angle, half_angle);
-    // One return is one obstacle somewhere across the cone: a voxel off the axis holds its width's
-    // share of a cross-section wider than a voxel (the axis' voxels hold the most likely part).
-    const double cross_section = 2.0 * beam.length * tan_half;
-    const double off_axis_share = cross_section > resolution ? resolution / cross_section : 1.0;
-    // The model's evidence for a voxel whose centre lies `along` the axis and sqrt(lateral_sq) off it.
-    auto judge = [&](const octomap::OcTreeKey& key, double along, double lateral_sq) __attribute__((always_inline)) {
-      along = std::max(0.0, along);
-      // The voxels the axis passes through are judged on the axis; the others by the angle of
-      // their centre (judging them by their part nearest the axis, a beam grazing a wall cleared
-      // wall voxels it never entered, issue 18).
-      const bool on_axis = axis_ray || along <= 0.0;
-      if (on_axis && along < pure_free_until) {
-        emit(key, l_free);
-        return;
-      }
-      double q = 0.0;  // tan(angle off the axis) / tan(half-angle)
-      if (!on_axis) {
-        // tan of the angle between the axis and the voxel's centre; the model only when the voxel
-        // is in the cone's taper or near the return.
-        // (Compared as products: a division only for the voxels that need the model.)
-        const double reach = std::sqrt(lateral_sq);
-        if (reach >= tan_half * along) return;                       // outside the cone
-        if (reach <= tan_full * along && along < off_axis_free_until) {
+    bool axis_ray = false;  // whether the ray being walked is the beam's axis
+    // Per voxel of a ray: voxels the ray leaves at a fraction t_exit in (t_lo, t_hi) of its length
+    // are the free valley without the model; the others are placed by `place` and judged.
+    auto visitor = [&](double t_lo, double t_hi, const auto& place) {
+      return [&, place, t_lo, t_hi](const octomap::OcTreeKey& key, double t_exit) __attribute__((always_inline)) {
+        if (t_exit > t_lo && t_exit < t_hi) {
           emit(key, l_free);
           return;
         }
-        q = reach / (along * tan_half);
-      }
-      const float value = beam.hit ? model_.hitUpdateInCone(beam.length, along, q, cone, on_axis ? 1.0 : off_axis_share)
-                                   : model_.noReturnUpdateInCone(beam.length, along, q, cone);
-      if (value != 0.0f) emit(key, value);
-    };
-    // OcTree::keyToCoord with the tree's constants in registers (through tree_ they are reloaded per voxel).
-    auto coord = [resolution, center](octomap::key_type k) { return (double(int(k) - center) + 0.5) * resolution; };
-    const double ox = origin.x(), oy = origin.y(), oz = origin.z();
-    auto evaluate = [&](const octomap::OcTreeKey& key) __attribute__((always_inline)) {
-      // The centre as OcTree::keyToCoord(key) gives it (a point3d: float coordinates).
-      const Eigen::Vector3d v(double(float(coord(key[0]))) - ox, double(float(coord(key[1]))) - oy,
-                              double(float(coord(key[2]))) - oz);
-      const double along = v.dot(beam.direction);
-      judge(key, along, (v - std::max(0.0, along) * beam.direction).squaredNorm());
-    };
-    // For a scan beam in a level scan, the same in the plane: `across` is the in-plane normal of
-    // the axis, and the voxel centre's height above the origin is the same for the whole layer.
-    const double dz = tree_->keyToCoord(origin_key[2]) - origin.z();
-    auto evaluate_level = [&](const octomap::OcTreeKey& key) __attribute__((always_inline)) {
-      const double vx = coord(key[0]) - ox, vy = coord(key[1]) - oy;
-      const double along = vx * beam.direction.x() + vy * beam.direction.y();
-      const double lateral = vx * beam.across.x() + vy * beam.across.y();
-      judge(key, along, along > 0.0 ? lateral * lateral + dz * dz : vx * vx + vy * vy + dz * dz);
-    };
-    // Per voxel of a ray, evaluating it with `eval`, except that voxels the ray leaves at a
-    // fraction t_exit in (t_lo, t_hi) of its length are the free valley without evaluating.
-    auto visitor = [&](double t_lo, double t_hi, const auto& eval) {
-      return [&emit, eval, t_lo, t_hi, l_free](const octomap::OcTreeKey& key,
-                                               double t_exit) __attribute__((always_inline)) {
-        if (t_exit > t_lo && t_exit < t_hi) {
-          emit(key, l_free);
-        } else {
-          eval(key);
-        }
+        double along, lateral_sq;
+        place(key, &along, &lateral_sq);
+        const float value = evidence.at(along, lateral_sq, axis_ray);
+        if (value != 0.0f) emit(key, value);
       };
     };
+    const auto in_3d = [&](const octomap::OcTreeKey& k, double* along, double* lateral_sq) __attribute__((
+                           always_inline)) { centres.place(k, beam.direction, along, lateral_sq); };
+    const auto in_layer = [&](const octomap::OcTreeKey& k, double* along, double* lateral_sq) __attribute__((
+                              always_inline)) { centres.placeInLayer(k, beam, along, lateral_sq); };
     // Scan beams of a level scan: the axis and `across` lie in the plane.
     const bool level_beam = beam.direction.z() == 0.0 && beam.across.z() == 0.0 && !beam.across.isZero();
+    const double length = traceLength(beam);
     for (std::size_t r = ray_begin_[b]; r < ray_begin_[b + 1]; ++r) {
       const Ray& ray = rays_[r];
       axis_ray = ray.axis;
       if (ray.start >= length) continue;
       const Eigen::Vector3d from = origin + ray.direction * ray.start;
       const Eigen::Vector3d far = origin + ray.direction * length;
-      const octomap::OcTreeKey& far_key = ray.far_key;
       octomap::OcTreeKey from_key = origin_key;
       if (ray.start > 0.0 && !coordToKeySafe(*tree_, from.x(), from.y(), from.z(), &from_key)) continue;
       double s_lo = 0.0, s_hi = -1.0;  // the ray's stretch (distance from the origin) known free
       if (shortcuts) {
-        freeStretch(ray, beam.direction, pure_free_until, off_axis_free_until, tan_full, half_diagonal, &s_lo, &s_hi);
+        freeStretch(ray, beam.direction, evidence.pureFreeUntil(), evidence.offAxisFreeUntil(), tan_full,
+                    half_diagonal, &s_lo, &s_hi);
       }
       const double t_lo = (s_lo - ray.start) / (length - ray.start), t_hi = (s_hi - ray.start) / (length - ray.start);
       if (level_beam) {  // its rays stay in the origin's layer: from.z == far.z exactly
-        traverseLevel(*tree_, from, far, from_key, far_key, visitor(t_lo, t_hi, evaluate_level));
+        traverseLevel(*tree_, from, far, from_key, ray.far_key, visitor(t_lo, t_hi, in_layer));
       } else {
-        traverseVoxels(*tree_, from, far, from_key, far_key, visitor(t_lo, t_hi, evaluate));
+        traverseVoxels(*tree_, from, far, from_key, ray.far_key, visitor(t_lo, t_hi, in_3d));
       }
     }
     if (fanned) handOnOncePerVoxel(&beam_evidence_, sink);
