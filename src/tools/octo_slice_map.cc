@@ -18,8 +18,10 @@
 #include <functional>
 #include <iostream>
 #include <map>
+#include <memory>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
@@ -157,6 +159,196 @@ std::string jsonMemory(osm::Mapper& mapper) {
   return j.str();
 }
 
+// What mapping the input gave besides the map: the held-out scans, counts, timings, problems.
+struct Intake {
+  std::vector<osm::Scan> held_out;
+  std::size_t scans_read = 0, beams = 0;
+  double insert_seconds = 0.0, cloud_seconds = 0.0;
+  std::map<std::string, std::size_t> skipped_scans;
+  std::size_t refused_reported = 0;
+  std::size_t bad_lines = 0;
+  std::string end_error;  // a log that ended early (truncated gzip)
+};
+
+// Feeds scans and clouds to the session, holding out every Nth scan and reporting refused ones.
+class Feeder {
+ public:
+  Feeder(const Args& args, osm::MappingSession* session, Intake* intake)
+      : args_(args), session_(session), intake_(intake) {}
+
+  // `where`: the log and line (or bag message) the scan came from, for the report of a refused one.
+  void scan(const osm::Scan& scan, const std::string& where) {
+    const bool hold = osm::HoldOut{args_.holdout_every, 5}.holds(intake_->scans_read);
+    ++intake_->scans_read;
+    if (hold) {
+      intake_->held_out.push_back(scan);
+      return;
+    }
+    const auto t0 = Clock::now();
+    const osm::InsertResult result = session_->insert(scan);
+    intake_->insert_seconds += std::chrono::duration<double>(Clock::now() - t0).count();
+    if (!result.ok()) {
+      intake_->skipped_scans["invalid_scan"]++;
+      if (++intake_->refused_reported <= 20) {
+        std::cerr << "octo_slice_map: " << where << ": scan skipped: " << result.error << "\n";
+      }
+      if (intake_->refused_reported == 21) std::cerr << "octo_slice_map: (further skipped scans are only counted)\n";
+      return;
+    }
+    intake_->beams += scan.ranges.size();
+  }
+  void cloud(const osm::SensorCloud& cloud) {
+    const auto t0 = Clock::now();
+    const osm::InsertResult result = session_->insert(cloud);
+    intake_->cloud_seconds += std::chrono::duration<double>(Clock::now() - t0).count();
+    if (!result.ok()) {
+      intake_->skipped_scans["cloud_invalid"]++;
+      if (++intake_->refused_reported <= 20) {
+        std::cerr << "octo_slice_map: " << args_.bag << ": cloud skipped: " << result.error << "\n";
+      }
+    }
+  }
+
+ private:
+  const Args& args_;
+  osm::MappingSession* session_;
+  Intake* intake_;
+};
+
+// A CARMEN log through `feed`; 0, or the exit status when the log cannot be read at all. Bad
+// lines are reported with their numbers and skipped; a truncated log keeps what came before.
+int mapLog(const Args& args, Feeder* feed, osm::tools::ProgressBar* bar, Intake* intake) {
+  osm::CarmenLogReader reader(args.carmen);
+  std::string error;
+  if (!reader.open(args.log, &error)) {
+    std::cerr << "octo_slice_map: " << error << "\n";
+    return 1;
+  }
+  osm::LogScan record;
+  while (reader.next(&record)) {
+    feed->scan(record.scan, args.log + ":" + std::to_string(record.line));
+    bar->update("mapping", reader.fileSize() ? double(reader.bytesRead()) / reader.fileSize() : 0.0);
+  }
+  bar->finish();
+  intake->bad_lines = reader.problemCount();
+  for (const osm::LogProblem& p : reader.problems()) {
+    std::cerr << "octo_slice_map: " << args.log << ":" << p.line << ": " << p.message << " (line skipped)\n";
+  }
+  if (reader.problemCount() > reader.problems().size()) {
+    std::cerr << "octo_slice_map: ... " << reader.problemCount() - reader.problems().size() << " more bad lines\n";
+  }
+  intake->end_error = reader.endError();
+  if (!intake->end_error.empty()) {
+    std::cerr << "octo_slice_map: " << intake->end_error << "; keeping the map built so far\n";
+  }
+  return 0;
+}
+
+// A bag's scans and clouds (through the bag's own tf) through `feed`; 0 or the exit status.
+int mapBag(const Args& args, Feeder* feed, osm::tools::ProgressBar* bar, Intake* intake) {
+  if (args.scan_topic.empty() && args.cloud_topic.empty()) {
+    std::cerr << "octo_slice_map: --scan-topic \"\" needs a --cloud-topic\n";
+    return 2;
+  }
+  osm::tools::BagHandlers handlers;
+  std::size_t bag_scans = 0;
+  handlers.scan = [&](const osm::Scan& scan) { feed->scan(scan, args.bag + ": scan " + std::to_string(bag_scans++)); };
+  handlers.cloud = [&](const osm::SensorCloud& cloud) { feed->cloud(cloud); };
+  std::string error;
+  if (!osm::tools::readBag(args.bag, {args.scan_topic, args.cloud_topic}, args.fixed_frame, handlers,
+                           &intake->skipped_scans, &error, [&](double f) { bar->update("mapping bag", f); })) {
+    std::cerr << "octo_slice_map: " << error << "\n";
+    return 1;
+  }
+  bar->finish();
+  return 0;
+}
+
+// What a service of the node would hold the map for: bringing the octree up to date with the
+// insertion cache (here: everything, as nothing read the octree before), then the snapshot.
+struct ReadCosts {
+  double flush_ms = 0.0, snapshot_ms = 0.0;
+  std::size_t snapshot_leaves = 0;
+};
+ReadCosts measureReadCosts(osm::Mapper* mapper) {
+  ReadCosts costs;
+  auto t0 = Clock::now();
+  mapper->tree();
+  costs.flush_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  t0 = Clock::now();
+  costs.snapshot_leaves = mapper->snapshot(/*with_scans=*/true).tree->getNumLeafNodes();
+  mapper->endSnapshot();
+  costs.snapshot_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  return costs;
+}
+
+std::string jsonReadings(const osm::ReadingCounts& counts) {
+  std::ostringstream json;
+  json << "{";
+  for (int k = 0; k < osm::kReadingKindCount; ++k) {
+    json << (k ? ", " : "") << '"' << osm::readingKindName(static_cast<osm::ReadingKind>(k)) << "\": " << counts.count[k];
+  }
+  json << "}";
+  return json.str();
+}
+
+std::string jsonOptimizeReport(const osm::OptimizeReport& r, bool warm_start) {
+  std::ostringstream json;
+  json << "{\"start\": " << (warm_start ? "\"incremental\"" : "\"empty\"")
+       << ", \"seconds\": " << r.build_seconds + r.optimize_seconds << ", \"index_seconds\": " << r.build_seconds
+       << ", \"sweeps\": " << r.sweeps << ", \"converged\": " << (r.converged ? "true" : "false")
+       << ", \"cells\": " << r.cells << ", \"beams\": " << r.beams << ", \"flips\": [";
+  for (std::size_t k = 0; k < r.flips_per_sweep.size(); ++k) json << (k ? ", " : "") << r.flips_per_sweep[k];
+  json << "], \"log_likelihood\": [" << r.initial_log_likelihood << ", " << r.final_log_likelihood
+       << "], \"memory_mb\": " << r.memory_bytes / 1e6 << "}";
+  return json.str();
+}
+
+// The one JSON line the tool prints.
+std::string report(const Args& args, osm::Mapper& mapper, const Intake& intake, const ReadCosts& costs,
+                   const osm::GridImage& incremental, const osm::SaveOutcome& saved) {
+  const osm::MapperStats& stats = mapper.stats();
+  const std::string source = args.log.empty() ? args.bag : args.log;
+  std::ostringstream json;
+  json << "{\"input\": " << jsonString(source) << ", \"scans\": " << stats.scans_inserted
+       << ", \"held_out_scans\": " << intake.held_out.size() << ", \"beams\": " << intake.beams
+       << ", \"readings\": " << jsonReadings(stats.readings)
+       << ", \"beams_outside_octree\": " << stats.beams_outside_octree << ", \"skipped_scans\": {";
+  bool first = true;
+  for (const auto& kv : intake.skipped_scans) {
+    json << (first ? "" : ", ") << jsonString(kv.first) << ": " << kv.second, first = false;
+  }
+  json << "}, \"bad_lines\": " << intake.bad_lines << ", \"log_error\": " << jsonString(intake.end_error)
+       << ", \"resolution\": " << mapper.options().resolution << ", \"voxels\": " << mapper.tree().getNumLeafNodes()
+       << ", \"known_cells\": " << mapper.slice().knownCells() << ", \"memory\": " << jsonMemory(mapper)
+       << ", \"insert_ms_per_scan\": "
+       << (stats.scans_inserted ? 1000.0 * intake.insert_seconds / stats.scans_inserted : 0.0);
+  if (!args.cloud_topic.empty()) {
+    json << ", \"clouds\": " << stats.clouds_inserted << ", \"ms_per_cloud\": "
+         << (stats.clouds_inserted ? 1000.0 * intake.cloud_seconds / stats.clouds_inserted : 0.0)
+         << ", \"cloud_points\": " << jsonReadings(stats.cloud_points);
+  }
+  json << ", \"flush_ms\": " << costs.flush_ms << ", \"snapshot_ms\": " << costs.snapshot_ms
+       << ", \"snapshot_leaves\": " << costs.snapshot_leaves
+       << ", \"scan_store_mb\": " << mapper.scanStore().memoryBytes() / 1e6;
+  const osm::OptimizedMap optimized = saved.optimized.value_or(osm::OptimizedMap());
+  if (args.optimize) json << ", \"optimize\": " << jsonOptimizeReport(optimized.report, args.warm_start);
+  if (!intake.held_out.empty()) {
+    // As exported (the optimized map in the incremental map's frame, as saved).
+    json << ", \"held_out\": {\"incremental\": "
+         << jsonScore(osm::scoreHeldOut(osm::trinaryOf(incremental), intake.held_out));
+    if (args.optimize) {
+      const osm::GridImage exported = osm::inFrameOf(optimized.grid, incremental);
+      json << ", \"optimized\": " << jsonScore(osm::scoreHeldOut(osm::trinaryOf(exported), intake.held_out));
+    }
+    json << "}";
+  }
+  json << ", \"peak_rss_mb\": " << peakRssMb() << ", \"files\": [";
+  for (std::size_t k = 0; k < saved.files.size(); ++k) json << (k ? ", " : "") << jsonString(saved.files[k]);
+  json << "]}";
+  return json.str();
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -176,93 +368,16 @@ int main(int argc, char** argv) {
     return 2;
   }
 
-  std::vector<osm::Scan> held_out;
-  std::size_t scans_read = 0, beams = 0;
-  double insert_seconds = 0.0, cloud_seconds = 0.0;
-  std::map<std::string, std::size_t> skipped_scans;
-  std::size_t refused_reported = 0;
-  // `where`: the log and line (or bag message) the scan came from, for the report of a refused one.
-  auto consume = [&](const osm::Scan& scan, const std::string& where) {
-    const bool hold = osm::HoldOut{args.holdout_every, 5}.holds(scans_read);
-    ++scans_read;
-    if (hold) {
-      held_out.push_back(scan);
-      return;
-    }
-    const auto t0 = Clock::now();
-    const osm::InsertResult result = session->insert(scan);
-    insert_seconds += std::chrono::duration<double>(Clock::now() - t0).count();
-    if (!result.ok()) {
-      skipped_scans["invalid_scan"]++;
-      if (++refused_reported <= 20) std::cerr << "octo_slice_map: " << where << ": scan skipped: " << result.error << "\n";
-      if (refused_reported == 21) std::cerr << "octo_slice_map: (further skipped scans are only counted)\n";
-      return;
-    }
-    beams += scan.ranges.size();
-  };
-
-  std::string error, end_error, source = args.log.empty() ? args.bag : args.log;
-  std::size_t bad_lines = 0;
-  if (!args.log.empty()) {
-    osm::CarmenLogReader reader(args.carmen);
-    if (!reader.open(args.log, &error)) {
-      std::cerr << "octo_slice_map: " << error << "\n";
-      return 1;
-    }
-    osm::LogScan record;
-    while (reader.next(&record)) {
-      consume(record.scan, args.log + ":" + std::to_string(record.line));
-      bar.update("mapping", reader.fileSize() ? double(reader.bytesRead()) / reader.fileSize() : 0.0);
-    }
-    bar.finish();
-    bad_lines = reader.problemCount();
-    for (const osm::LogProblem& p : reader.problems()) {
-      std::cerr << "octo_slice_map: " << args.log << ":" << p.line << ": " << p.message << " (line skipped)\n";
-    }
-    if (reader.problemCount() > reader.problems().size()) {
-      std::cerr << "octo_slice_map: ... " << reader.problemCount() - reader.problems().size() << " more bad lines\n";
-    }
-    end_error = reader.endError();
-    if (!end_error.empty()) std::cerr << "octo_slice_map: " << end_error << "; keeping the map built so far\n";
-  } else {
-    osm::tools::BagHandlers handlers;
-    std::size_t bag_scans = 0;
-    handlers.scan = [&](const osm::Scan& scan) { consume(scan, args.bag + ": scan " + std::to_string(bag_scans++)); };
-    handlers.cloud = [&](const osm::SensorCloud& cloud) {
-      const auto t0 = Clock::now();
-      const osm::InsertResult result = session->insert(cloud);
-      cloud_seconds += std::chrono::duration<double>(Clock::now() - t0).count();
-      if (!result.ok()) {
-        skipped_scans["cloud_invalid"]++;
-        if (++refused_reported <= 20) std::cerr << "octo_slice_map: " << args.bag << ": cloud skipped: " << result.error << "\n";
-      }
-    };
-    if (args.scan_topic.empty() && args.cloud_topic.empty()) {
-      std::cerr << "octo_slice_map: --scan-topic \"\" needs a --cloud-topic\n";
-      return 2;
-    }
-    if (!osm::tools::readBag(args.bag, {args.scan_topic, args.cloud_topic}, args.fixed_frame, handlers, &skipped_scans,
-                             &error, [&](double f) { bar.update("mapping bag", f); })) {
-      std::cerr << "octo_slice_map: " << error << "\n";
-      return 1;
-    }
-    bar.finish();
-  }
+  Intake intake;
+  Feeder feed(args, session.get(), &intake);
+  code = args.log.empty() ? mapBag(args, &feed, &bar, &intake) : mapLog(args, &feed, &bar, &intake);
+  if (code != 0) return code;
   osm::Mapper& mapper = session->mapperUnlocked();  // no other thread here
   if (mapper.stats().scans_inserted == 0 && mapper.stats().clouds_inserted == 0) {
-    std::cerr << "octo_slice_map: no scan could be inserted from " << source << "\n";
+    std::cerr << "octo_slice_map: no scan could be inserted from " << (args.log.empty() ? args.bag : args.log) << "\n";
     return 1;
   }
-
-  // What a service of the node would hold the map for: bringing the octree up to date with the
-  // insertion cache (here: everything, as nothing read the octree before), then the snapshot.
-  auto t0 = Clock::now();
-  mapper.tree();
-  const double flush_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-  t0 = Clock::now();
-  const std::size_t snapshot_leaves = mapper.snapshot(/*with_scans=*/true).tree->getNumLeafNodes();
-  mapper.endSnapshot();
-  const double snapshot_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  const ReadCosts costs = measureReadCosts(&mapper);
 
   const osm::GridImage incremental = osm::gridImageOf(mapper.slice());
   const osm::SaveOutcome saved =
@@ -273,60 +388,6 @@ int main(int argc, char** argv) {
     return 1;
   }
   if (!saved.note.empty()) std::cerr << "octo_slice_map: " << saved.note << "\n";
-  const std::vector<std::string>& files = saved.files;
-  const osm::OptimizedMap optimized = saved.optimized.value_or(osm::OptimizedMap());
-
-  const osm::MapperStats& stats = mapper.stats();
-  std::ostringstream json;
-  json << "{\"input\": " << jsonString(source) << ", \"scans\": " << stats.scans_inserted
-       << ", \"held_out_scans\": " << held_out.size() << ", \"beams\": " << beams << ", \"readings\": {";
-  for (int k = 0; k < osm::kReadingKindCount; ++k) {
-    json << (k ? ", " : "") << '"' << osm::readingKindName(static_cast<osm::ReadingKind>(k))
-         << "\": " << stats.readings.count[k];
-  }
-  json << "}, \"beams_outside_octree\": " << stats.beams_outside_octree << ", \"skipped_scans\": {";
-  bool first = true;
-  for (const auto& kv : skipped_scans) json << (first ? "" : ", ") << jsonString(kv.first) << ": " << kv.second, first = false;
-  json << "}, \"bad_lines\": " << bad_lines << ", \"log_error\": " << jsonString(end_error)
-       << ", \"resolution\": " << mapper.options().resolution << ", \"voxels\": " << mapper.tree().getNumLeafNodes()
-       << ", \"known_cells\": " << mapper.slice().knownCells()
-       << ", \"memory\": " << jsonMemory(mapper)
-       << ", \"insert_ms_per_scan\": " << (stats.scans_inserted ? 1000.0 * insert_seconds / stats.scans_inserted : 0.0);
-  if (!args.cloud_topic.empty()) {
-    json << ", \"clouds\": " << stats.clouds_inserted << ", \"ms_per_cloud\": "
-         << (stats.clouds_inserted ? 1000.0 * cloud_seconds / stats.clouds_inserted : 0.0) << ", \"cloud_points\": {";
-    for (int k = 0; k < osm::kReadingKindCount; ++k) {
-      json << (k ? ", " : "") << '"' << osm::readingKindName(static_cast<osm::ReadingKind>(k))
-           << "\": " << stats.cloud_points.count[k];
-    }
-    json << "}";
-  }
-  json
-       << ", \"flush_ms\": " << flush_ms << ", \"snapshot_ms\": " << snapshot_ms
-       << ", \"snapshot_leaves\": " << snapshot_leaves
-       << ", \"scan_store_mb\": " << mapper.scanStore().memoryBytes() / 1e6;
-  if (args.optimize) {
-    const osm::OptimizeReport& r = optimized.report;
-    json << ", \"optimize\": {\"start\": " << (args.warm_start ? "\"incremental\"" : "\"empty\"")
-         << ", \"seconds\": " << r.build_seconds + r.optimize_seconds << ", \"index_seconds\": " << r.build_seconds
-         << ", \"sweeps\": " << r.sweeps << ", \"converged\": " << (r.converged ? "true" : "false")
-         << ", \"cells\": " << r.cells << ", \"beams\": " << r.beams << ", \"flips\": [";
-    for (std::size_t k = 0; k < r.flips_per_sweep.size(); ++k) json << (k ? ", " : "") << r.flips_per_sweep[k];
-    json << "], \"log_likelihood\": [" << r.initial_log_likelihood << ", " << r.final_log_likelihood
-         << "], \"memory_mb\": " << r.memory_bytes / 1e6 << "}";
-  }
-  if (!held_out.empty()) {
-    // As exported (the optimized map in the incremental map's frame, as saved).
-    json << ", \"held_out\": {\"incremental\": " << jsonScore(osm::scoreHeldOut(osm::trinaryOf(incremental), held_out));
-    if (args.optimize) {
-      const osm::GridImage saved = osm::inFrameOf(optimized.grid, incremental);
-      json << ", \"optimized\": " << jsonScore(osm::scoreHeldOut(osm::trinaryOf(saved), held_out));
-    }
-    json << "}";
-  }
-  json << ", \"peak_rss_mb\": " << peakRssMb() << ", \"files\": [";
-  for (std::size_t k = 0; k < files.size(); ++k) json << (k ? ", " : "") << jsonString(files[k]);
-  json << "]}";
-  std::cout << json.str() << std::endl;
+  std::cout << report(args, mapper, intake, costs, incremental, saved) << std::endl;
   return 0;
 }
