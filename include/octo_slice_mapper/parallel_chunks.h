@@ -4,6 +4,7 @@
 #pragma once
 
 #include <algorithm>
+#include <atomic>
 #include <cstddef>
 #include <thread>
 #include <vector>
@@ -27,6 +28,25 @@ void forEachChunk(std::size_t n, unsigned workers, Fn&& fn) {
   threads.reserve(workers - 1);
   for (unsigned w = 0; w + 1 < workers; ++w) threads.emplace_back([&, w] { fn(bound(w), bound(w + 1), w); });
   fn(bound(workers - 1), n, workers - 1);
+  for (std::thread& t : threads) t.join();
+}
+
+// fn(begin, end, piece) for piece = 0 .. pieces-1, the equal pieces of [0, n), run by `workers`
+// threads (the calling thread is one) each taking the next piece as it comes free: work that is
+// uneven across [0, n) stays balanced. Which thread runs a piece changes nothing: results kept
+// per piece and joined in piece order are a serial loop's, whatever the number of cores.
+template <typename Fn>
+void forEachPiece(std::size_t n, std::size_t pieces, unsigned workers, Fn&& fn) {
+  pieces = std::max<std::size_t>(1, pieces);
+  workers = static_cast<unsigned>(std::clamp<std::size_t>(workers, 1, pieces));
+  std::atomic<std::size_t> next{0};
+  const auto run = [&] {
+    for (std::size_t p = next++; p < pieces; p = next++) fn(n * p / pieces, n * (p + 1) / pieces, p);
+  };
+  std::vector<std::thread> threads;
+  threads.reserve(workers - 1);
+  for (unsigned w = 0; w + 1 < workers; ++w) threads.emplace_back(run);
+  run();
   for (std::thread& t : threads) t.join();
 }
 

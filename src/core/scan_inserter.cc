@@ -157,19 +157,24 @@ void runsOf(const std::vector<Eigen::Vector3f>& points, std::size_t begin, std::
 }
 
 // Points by the voxel (of an octree of this resolution and depth) they end in. An organized
-// cloud's neighbours mostly share a voxel: runs of them are merged first (in chunks on every core,
-// joined in order), then the runs through an open-addressing table, in first-seen order.
+// cloud's neighbours mostly share a voxel: runs of them are merged first (in pieces of a fixed
+// size on every core, joined in order: the same groups and sums on any number of cores), then the
+// runs through an open-addressing table, in first-seen order.
 EndVoxels groupByEndVoxel(const std::vector<Eigen::Vector3f>& points, double resolution, unsigned depth) {
   // OctoMap's coordToKey (floor(coordinate / resolution) + the tree's centre key), inline, as
   // floor(coordinate / resolution + centre): non-negative where in range, so truncation is the
   // floor, without a call to floor() per coordinate (which more than doubled the time).
   const double inverse = 1.0 / resolution;
   const double centre = static_cast<double>(1 << (depth - 1));
-  const unsigned workers = workersFor(0, points.size(), std::size_t(1) << 15);
-  std::vector<EndVoxels> parts(workers);
-  forEachChunk(points.size(), workers, [&](std::size_t begin, std::size_t end, unsigned w) {
-    runsOf(points, begin, end, inverse, centre, &parts[w]);
-  });
+  // Pieces, not one chunk per core: how long the runs are differs across a frame (a desk frame's
+  // second half took twice its first's time), and pieces are shared out as cores come free.
+  constexpr std::size_t kPiece = std::size_t(1) << 14;
+  const std::size_t pieces = (points.size() + kPiece - 1) / kPiece;
+  std::vector<EndVoxels> parts(std::max<std::size_t>(1, pieces));
+  forEachPiece(points.size(), pieces, workersFor(0, points.size(), kPiece),
+               [&](std::size_t begin, std::size_t end, std::size_t piece) {
+                 runsOf(points, begin, end, inverse, centre, &parts[piece]);
+               });
   EndVoxels grouped;
   std::size_t run_count = 0;
   for (const EndVoxels& part : parts) {
