@@ -107,28 +107,23 @@ struct EndVoxels {
   ReadingCounts non_finite;              // nan / inf
 };
 
-// Runs of consecutive points ending in the same voxel, from points[begin, end). The current run is
-// summed in registers; a finished one joins one of the last few stored runs of its voxel if there
-// is one (depth noise makes neighbouring pixels alternate between two voxels), else is stored.
-void runsOf(const std::vector<Eigen::Vector3f>& points, std::size_t begin, std::size_t end, double inverse,
-            double centre, EndVoxels* out) {
-  constexpr std::size_t kRecentRuns = 4;
-  out->voxels.reserve((end - begin) / 8);
-  std::uint64_t run_key = ~std::uint64_t{0}, run_n = 0;
-  double run_x = 0.0, run_y = 0.0, run_z = 0.0;  // locals, not a struct: they stay in registers
-  const auto store = [out](const EndVoxel& done) {
-    std::vector<EndVoxel>& runs = out->voxels;
-    const std::size_t stored = runs.size();
-    for (std::size_t back = 1; back <= kRecentRuns && back <= stored; ++back) {
-      EndVoxel& r = runs[stored - back];
-      if (r.key == done.key) {
-        r.sum += done.sum;
-        r.n += done.n;
-        return;
-      }
-    }
-    runs.push_back(done);
+// The points of points[begin, end) summed per end voxel through a small direct-mapped table of
+// the voxels met last. An organized frame's neighbouring pixels end in a few voxels, and depth
+// noise makes them alternate between two: summing runs of equal voxels instead, the end of a run
+// was a mispredicted branch at every second or third point (82 000 of a desk frame's half, most
+// of its time). A voxel's sum leaves the table when another voxel takes its slot, and at the end;
+// a voxel may leave it more than once (the merge joins them).
+void voxelSumsOf(const std::vector<Eigen::Vector3f>& points, std::size_t begin, std::size_t end, double inverse,
+                 double centre, EndVoxels* out) {
+  constexpr unsigned kSlotBits = 8;  // 256 slots, 10 KB: in the first-level cache
+  struct Slot {
+    std::uint64_t key;
+    double x, y, z;  // not an Eigen vector: the compiler keeps the sums' arithmetic scalar and short
+    std::uint64_t n;
   };
+  Slot slots[1u << kSlotBits];
+  for (Slot& slot : slots) slot.key = ~std::uint64_t{0}, slot.n = 0;
+  out->voxels.reserve((end - begin) / 32);
   for (std::size_t i = begin; i < end; ++i) {
     const Eigen::Vector3f& p = points[i];
     if (!p.allFinite()) {
@@ -144,63 +139,67 @@ void runsOf(const std::vector<Eigen::Vector3f>& points, std::size_t begin, std::
     // Through int64: a double to uint64 conversion is a branchy sequence on x86-64.
     const std::uint64_t key = std::uint64_t(std::int64_t(sx)) | std::uint64_t(std::int64_t(sy)) << 16 |
                               std::uint64_t(std::int64_t(sz)) << 32;
-    if (key == run_key) {
-      run_x += q.x(), run_y += q.y(), run_z += q.z();
-      run_n++;
+    Slot& slot = slots[(key * 0x9E3779B97F4A7C15ull) >> (64 - kSlotBits)];
+    if (slot.key == key) {
+      slot.x += q.x(), slot.y += q.y(), slot.z += q.z();
+      slot.n++;
       continue;
     }
-    if (run_n > 0) store({run_key, Eigen::Vector3d(run_x, run_y, run_z), run_n});
-    run_key = key, run_n = 1;
-    run_x = q.x(), run_y = q.y(), run_z = q.z();
+    if (slot.n > 0) out->voxels.push_back({slot.key, Eigen::Vector3d(slot.x, slot.y, slot.z), slot.n});
+    slot.key = key, slot.n = 1;
+    slot.x = q.x(), slot.y = q.y(), slot.z = q.z();
   }
-  if (run_n > 0) store({run_key, Eigen::Vector3d(run_x, run_y, run_z), run_n});
+  for (const Slot& slot : slots) {
+    if (slot.n > 0) out->voxels.push_back({slot.key, Eigen::Vector3d(slot.x, slot.y, slot.z), slot.n});
+  }
 }
 
-// Points by the voxel (of an octree of this resolution and depth) they end in. An organized
-// cloud's neighbours mostly share a voxel: runs of them are merged first (in pieces of a fixed
-// size on every core, joined in order: the same groups and sums on any number of cores), then the
-// runs through an open-addressing table, in first-seen order.
+// Points by the voxel (of an octree of this resolution and depth) they end in: summed per piece
+// of a fixed size first (voxelSumsOf, the pieces on every core, joined in order: the same groups
+// and sums on any number of cores), then the pieces' sums through an open-addressing table, in the
+// order they come.
 EndVoxels groupByEndVoxel(const std::vector<Eigen::Vector3f>& points, double resolution, unsigned depth) {
   // OctoMap's coordToKey (floor(coordinate / resolution) + the tree's centre key), inline, as
   // floor(coordinate / resolution + centre): non-negative where in range, so truncation is the
   // floor, without a call to floor() per coordinate (which more than doubled the time).
   const double inverse = 1.0 / resolution;
   const double centre = static_cast<double>(1 << (depth - 1));
-  // Pieces, not one chunk per core: how long the runs are differs across a frame (a desk frame's
-  // second half took twice its first's time), and pieces are shared out as cores come free.
+  // Pieces, not one chunk per core: the cost of a point differs across a frame (with runs of
+  // equal voxels a desk frame's second half took twice its first's time), and pieces are shared
+  // out as cores come free.
   constexpr std::size_t kPiece = std::size_t(1) << 14;
   const std::size_t pieces = (points.size() + kPiece - 1) / kPiece;
   std::vector<EndVoxels> parts(std::max<std::size_t>(1, pieces));
   forEachPiece(points.size(), pieces, workersFor(0, points.size(), kPiece),
                [&](std::size_t begin, std::size_t end, std::size_t piece) {
-                 runsOf(points, begin, end, inverse, centre, &parts[piece]);
+                 voxelSumsOf(points, begin, end, inverse, centre, &parts[piece]);
                });
   EndVoxels grouped;
-  std::size_t run_count = 0;
+  std::size_t sums = 0;
   for (const EndVoxels& part : parts) {
     grouped.non_finite += part.non_finite;
     grouped.outside.insert(grouped.outside.end(), part.outside.begin(), part.outside.end());
-    run_count += part.voxels.size();
+    sums += part.voxels.size();
   }
   unsigned bits = 4;
-  while ((std::size_t(1) << bits) < 2 * run_count) ++bits;
+  while ((std::size_t(1) << bits) < 2 * sums) ++bits;
   std::vector<std::int32_t> table(std::size_t(1) << bits, -1);
   const std::size_t mask = table.size() - 1;
   std::vector<EndVoxel>& voxels = grouped.voxels;
-  voxels.reserve(run_count / 4);
+  voxels.reserve(sums / 4);
   for (const EndVoxels& part : parts) {
-    for (const EndVoxel& run : part.voxels) {
-      std::size_t slot = static_cast<std::size_t>((run.key * 0x9E3779B97F4A7C15ull) >> (64 - bits));
+    for (const EndVoxel& sum : part.voxels) {
+      std::size_t slot = static_cast<std::size_t>((sum.key * 0x9E3779B97F4A7C15ull) >> (64 - bits));
       for (;; slot = (slot + 1) & mask) {
         if (table[slot] < 0) {
           table[slot] = static_cast<std::int32_t>(voxels.size());
-          voxels.push_back(run);
+          voxels.push_back(sum);
           break;
         }
         EndVoxel& g = voxels[static_cast<std::size_t>(table[slot])];
-        if (g.key == run.key) {
-          g.sum += run.sum;
-          g.n += run.n;
+        if (g.key == sum.key) {
+          g.sum += sum.sum;
+          g.n += sum.n;
           break;
         }
       }
