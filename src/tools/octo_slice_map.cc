@@ -184,32 +184,29 @@ class Feeder {
       intake_->held_out.push_back(scan);
       return;
     }
-    const auto t0 = Clock::now();
-    const osm::InsertResult result = session_->insert(scan);
-    intake_->insert_seconds += std::chrono::duration<double>(Clock::now() - t0).count();
-    if (!result.ok()) {
-      intake_->skipped_scans["invalid_scan"]++;
-      if (++intake_->refused_reported <= 20) {
-        std::cerr << "octo_slice_map: " << where << ": scan skipped: " << result.error << "\n";
-      }
-      if (intake_->refused_reported == 21) std::cerr << "octo_slice_map: (further skipped scans are only counted)\n";
-      return;
-    }
-    intake_->beams += scan.ranges.size();
+    if (insert(scan, &intake_->insert_seconds, "invalid_scan", "scan", where)) intake_->beams += scan.ranges.size();
   }
   void cloud(const osm::SensorCloud& cloud) {
-    const auto t0 = Clock::now();
-    const osm::InsertResult result = session_->insert(cloud);
-    intake_->cloud_seconds += std::chrono::duration<double>(Clock::now() - t0).count();
-    if (!result.ok()) {
-      intake_->skipped_scans["cloud_invalid"]++;
-      if (++intake_->refused_reported <= 20) {
-        std::cerr << "octo_slice_map: " << args_.bag << ": cloud skipped: " << result.error << "\n";
-      }
-    }
+    insert(cloud, &intake_->cloud_seconds, "cloud_invalid", "cloud", args_.bag);
   }
 
  private:
+  // One scan or cloud into the session, timed; a refused one is counted under `reason` and
+  // reported (the first 20).
+  template <typename Item>
+  bool insert(const Item& item, double* seconds, const char* reason, const char* what, const std::string& where) {
+    const auto t0 = Clock::now();
+    const osm::InsertResult result = session_->insert(item);
+    *seconds += std::chrono::duration<double>(Clock::now() - t0).count();
+    if (result.ok()) return true;
+    intake_->skipped_scans[reason]++;
+    if (++intake_->refused_reported <= 20) {
+      std::cerr << "octo_slice_map: " << where << ": " << what << " skipped: " << result.error << "\n";
+    }
+    if (intake_->refused_reported == 21) std::cerr << "octo_slice_map: (further skipped scans and clouds are only counted)\n";
+    return false;
+  }
+
   const Args& args_;
   osm::MappingSession* session_;
   Intake* intake_;
