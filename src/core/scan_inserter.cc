@@ -102,10 +102,20 @@ struct EndVoxel {
   std::uint64_t n;
 };
 struct EndVoxels {
-  std::vector<EndVoxel> voxels;          // in the order their voxels are first met
+  std::vector<EndVoxel> voxels;          // in a deterministic order (see voxelSumsOf, groupByEndVoxel)
   std::vector<Eigen::Vector3d> outside;  // finite points outside the octree's keys, in order
   ReadingCounts non_finite;              // nan / inf
 };
+
+// How a non-finite point is counted.
+ReadingKind nonFiniteKind(const Eigen::Vector3f& p) {
+  return p.array().isNaN().any() ? ReadingKind::kNaN : ReadingKind::kInfinite;
+}
+
+// A voxel key's slot in a table of 2^bits slots (Fibonacci hashing: the key's bits spread evenly).
+std::size_t slotOf(std::uint64_t key, unsigned bits) {
+  return static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ull) >> (64 - bits));
+}
 
 // The points of points[begin, end) summed per end voxel through a small direct-mapped table of
 // the voxels met last. An organized frame's neighbouring pixels end in a few voxels, and depth
@@ -127,7 +137,7 @@ void voxelSumsOf(const std::vector<Eigen::Vector3f>& points, std::size_t begin, 
   for (std::size_t i = begin; i < end; ++i) {
     const Eigen::Vector3f& p = points[i];
     if (!p.allFinite()) {
-      out->non_finite[p.array().isNaN().any() ? ReadingKind::kNaN : ReadingKind::kInfinite]++;
+      out->non_finite[nonFiniteKind(p)]++;
       continue;
     }
     const Eigen::Vector3d q = p.cast<double>();
@@ -139,7 +149,7 @@ void voxelSumsOf(const std::vector<Eigen::Vector3f>& points, std::size_t begin, 
     // Through int64: a double to uint64 conversion is a branchy sequence on x86-64.
     const std::uint64_t key = std::uint64_t(std::int64_t(sx)) | std::uint64_t(std::int64_t(sy)) << 16 |
                               std::uint64_t(std::int64_t(sz)) << 32;
-    Slot& slot = slots[(key * 0x9E3779B97F4A7C15ull) >> (64 - kSlotBits)];
+    Slot& slot = slots[slotOf(key, kSlotBits)];
     if (slot.key == key) {
       slot.x += q.x(), slot.y += q.y(), slot.z += q.z();
       slot.n++;
@@ -189,7 +199,7 @@ EndVoxels groupByEndVoxel(const std::vector<Eigen::Vector3f>& points, double res
   voxels.reserve(sums / 4);
   for (const EndVoxels& part : parts) {
     for (const EndVoxel& sum : part.voxels) {
-      std::size_t slot = static_cast<std::size_t>((sum.key * 0x9E3779B97F4A7C15ull) >> (64 - bits));
+      std::size_t slot = slotOf(sum.key, bits);
       for (;; slot = (slot + 1) & mask) {
         if (table[slot] < 0) {
           table[slot] = static_cast<std::int32_t>(voxels.size());
@@ -236,7 +246,7 @@ std::vector<Beam> ScanInserter::cloudBeams(const Eigen::Vector3d& origin, const 
     beams.reserve(points.size());
     for (const Eigen::Vector3f& p : points) {
       if (p.allFinite()) beamTo(p.cast<double>(), 1);
-      else c[p.array().isNaN().any() ? ReadingKind::kNaN : ReadingKind::kInfinite]++;
+      else c[nonFiniteKind(p)]++;
     }
     return beams;
   }

@@ -27,7 +27,7 @@ std::string sessionSummary(const NodeCounters& c, const MapFigures& map, double 
       << " time_jumps_back=" << c.time_jumps_back << " scans_held_for_order=" << c.scans_held_for_order
       << " scans_taken_over=" << c.scans_taken_over << " clouds_inserted=" << c.clouds_inserted;
   for (const auto& kv : c.skipped) out << " skipped_" << kv.first << '=' << kv.second;
-  out << " readings: " << map.readings;
+  out << " readings: " << map.readings << " beams_outside_octree=" << map.beams_outside_octree;
   if (!map.cloud_points.empty()) out << " cloud_points: " << map.cloud_points;
   out << " voxels=" << map.voxels << " known_cells=" << map.known_cells;
   out << " insert_ms_per_scan=" << (c.scans_inserted ? 1000.0 * c.scan_insert_seconds / c.scans_inserted : 0.0);

@@ -54,6 +54,7 @@ class SkipLog {
 // What the session summary says about the map besides the counters (the mapper's figures).
 struct MapFigures {
   std::string readings, cloud_points;  // ReadingCounts::summary(); cloud_points empty without clouds
+  std::uint64_t beams_outside_octree = 0;
   std::size_t voxels = 0, known_cells = 0;
 };
 

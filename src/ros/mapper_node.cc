@@ -321,8 +321,8 @@ std::string MapperNode::summary() {
   }
   MapFigures map;
   session_.withMapper([&map](Mapper& mapper) {
-    map.readings = mapper.stats().readings.summary() +
-                   " beams_outside_octree=" + std::to_string(mapper.stats().beams_outside_octree);
+    map.readings = mapper.stats().readings.summary();
+    map.beams_outside_octree = mapper.stats().beams_outside_octree;
     if (mapper.stats().clouds_inserted) map.cloud_points = mapper.stats().cloud_points.summary();
     map.voxels = mapper.tree().getNumLeafNodes();
     map.known_cells = mapper.slice().knownCells();

@@ -328,7 +328,8 @@ std::string report(const Args& args, osm::Mapper& mapper, const Intake& intake, 
   json << ", \"flush_ms\": " << costs.flush_ms << ", \"snapshot_ms\": " << costs.snapshot_ms
        << ", \"snapshot_leaves\": " << costs.snapshot_leaves
        << ", \"scan_store_mb\": " << mapper.scanStore().memoryBytes() / 1e6;
-  const osm::OptimizedMap optimized = saved.optimized.value_or(osm::OptimizedMap());
+  static const osm::OptimizedMap kNone;
+  const osm::OptimizedMap& optimized = saved.optimized ? *saved.optimized : kNone;
   if (args.optimize) json << ", \"optimize\": " << jsonOptimizeReport(optimized.report, args.warm_start);
   if (!intake.held_out.empty()) {
     // As exported (the optimized map in the incremental map's frame, as saved).
