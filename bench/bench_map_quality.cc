@@ -7,15 +7,18 @@
 // Each map is judged as exported: the map_server reading of its .pgm (trinaryOf), every held-out
 // return cast through it to the first occupied cell (scoreHeldOut, the same rules as
 // shared/tools/map_judge). With --out DIR the maps are also written as DIR/<data>_<map>.{pgm,yaml},
-// so that the shared judge can check the figures.
+// so that the shared judge can check the figures. --bag FILE judges a bag's scans instead (topic
+// "scan", placed with the bag's tf in frame "odom"), such as the simulator's sessions: data no
+// setting was chosen on.
 //
-//   bench_map_quality [--data DIR] [--only intel|fr079] [--out DIR] [--every N] [--incremental-only]
+//   bench_map_quality [--data DIR] [--only intel|fr079] [--bag FILE] [--out DIR] [--every N] [--incremental-only]
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <string>
 #include <vector>
 
+#include "bag_scans.h"
 #include "octo_slice_mapper/carmen_log.h"
 #include "octo_slice_mapper/held_out_score.h"
 #include "octo_slice_mapper/mapper.h"
@@ -30,7 +33,19 @@ struct Dataset {
   std::string name, file;
 };
 
+bool readBag(const std::string& path, std::vector<osm::Scan>* scans) {
+  osm::tools::BagScans bag;
+  std::string error;
+  if (!osm::tools::readBagScans(path, "scan", "odom", &bag, &error)) {
+    std::fprintf(stderr, "bench_map_quality: %s\n", error.c_str());
+    return false;
+  }
+  *scans = std::move(bag.scans);
+  return true;
+}
+
 bool readLog(const std::string& path, std::vector<osm::Scan>* scans) {
+  if (path.size() > 4 && path.compare(path.size() - 4, 4, ".bag") == 0) return readBag(path, scans);
   osm::CarmenLogReader reader;
   std::string error;
   if (!reader.open(path, &error)) {
@@ -59,7 +74,7 @@ void report(const std::string& data, const Row& r) {
 
 int main(int argc, char** argv) {
   std::string data_dir = std::getenv("OSM_DATA_DIR") ? std::getenv("OSM_DATA_DIR") : "../shared/data";
-  std::string only, out_dir;
+  std::string only, out_dir, bag;
   bool incremental_only = false;
   osm::HoldOut hold{10, 5};
   for (int i = 1; i < argc; ++i) {
@@ -68,16 +83,21 @@ int main(int argc, char** argv) {
     if (a == "--incremental-only") incremental_only = true;
     else if (a == "--data" && has_value) data_dir = argv[++i];
     else if (a == "--only" && has_value) only = argv[++i];
+    else if (a == "--bag" && has_value) bag = argv[++i];
     else if (a == "--out" && has_value) out_dir = argv[++i];
     else if (a == "--every" && has_value) hold.every = std::atoi(argv[++i]);
     else {
-      std::fprintf(stderr, "usage: bench_map_quality [--data DIR] [--only intel|fr079] [--out DIR] [--every N] "
-                           "[--incremental-only]\n");
+      std::fprintf(stderr, "usage: bench_map_quality [--data DIR] [--only intel|fr079] [--bag FILE] [--out DIR] "
+                           "[--every N] [--incremental-only]\n");
       return 2;
     }
   }
-  const std::vector<Dataset> datasets = {{"intel", data_dir + "/intel_corrected/intel-corrected.log.gz"},
-                                         {"fr079", data_dir + "/fr079_corrected/freiburg-079-corrected.log.gz"}};
+  std::vector<Dataset> datasets = {{"intel", data_dir + "/intel_corrected/intel-corrected.log.gz"},
+                                   {"fr079", data_dir + "/fr079_corrected/freiburg-079-corrected.log.gz"}};
+  if (!bag.empty()) {
+    const std::size_t slash = bag.find_last_of('/');
+    datasets = {{bag.substr(slash == std::string::npos ? 0 : slash + 1), bag}};
+  }
   std::printf("| data | map | within 0.10 m | within 0.25 m | mean abs err (m) | too short | too long | unknown first | s |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|\n");
   for (const Dataset& d : datasets) {
