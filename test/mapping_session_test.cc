@@ -278,6 +278,9 @@ TEST_F(MappingSessionTest, ReconfigureRefusesImpossibleValuesAndKeepsTheModels) 
   insertAll(&session, 0, 30);
   for (std::size_t k = 0; k < 30; ++k) ASSERT_TRUE(plain.insert((*scans_)[k]).ok());
   const std::uint64_t version = session.version();
+  std::size_t unflushed = 0;  // what the insertion cache holds that the octree does not yet
+  session.withMapper([&](Mapper& m) { unflushed = m.inserter().cache().dirtyCount(); });
+  ASSERT_GT(unflushed, 0u);
   MapperOptions bad_model = session.mapperOptions();
   bad_model.insert.model.p_free = 0.9;
   std::string error;
@@ -290,6 +293,9 @@ TEST_F(MappingSessionTest, ReconfigureRefusesImpossibleValuesAndKeepsTheModels) 
   EXPECT_FALSE(session.reconfigure(bad_band, &error));
   EXPECT_NE(error.find("slice"), std::string::npos) << error;
   EXPECT_EQ(session.version(), version) << "nothing changed";
+  session.withMapper([&](Mapper& m) {
+    EXPECT_EQ(m.inserter().cache().dirtyCount(), unflushed) << "a refused reconfigure wrote into the octree";
+  });
   EXPECT_EQ(session.mapperOptions().insert.model.p_free, MapperOptions().insert.model.p_free);
   insertAll(&session, 30, 60);
   for (std::size_t k = 30; k < 60; ++k) ASSERT_TRUE(plain.insert((*scans_)[k]).ok());

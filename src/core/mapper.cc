@@ -40,6 +40,10 @@ void Mapper::install(std::unique_ptr<octomap::OcTree> tree, const MapperOptions&
   // Build the new parts before swapping, so a bad option or a slice too big leaves the old map in place.
   auto inserter = std::make_unique<ScanInserter>(target, options.insert);
   auto slice = std::make_unique<SliceGrid>(*target, options.slice, &inserter->cache());
+  // The options are valid. On the same octree the new inserter starts with an empty cache and the
+  // new slice reads the octree: it must hold what the old cache holds. (Flushed before the
+  // options were checked, a refused reconfigure wrote into the octree.)
+  if (!tree && inserter_) inserter_->flush();
   slice->rebuild();
   options_ = options;
   options_.resolution = target->getResolution();
@@ -305,7 +309,6 @@ bool Mapper::reconfigure(const MapperOptions& wanted, std::string* error) {
   next.slice.max_z = wanted.slice.max_z;
   next.optimizer.model = wanted.optimizer.model;
   followInsertion(&next);
-  inserter_->flush();  // the new inserter starts with an empty cache: the octree must hold all
   try {
     install(nullptr, next);  // builds the new model and slice before it swaps anything in
   } catch (const std::invalid_argument& e) {
