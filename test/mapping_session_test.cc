@@ -402,7 +402,10 @@ TEST(CloudPreparation, GivesInsertPointsTreeAndIsRefusedAfterAReset) {
 
 TEST_F(MappingSessionTest, CloudsPreparedOutsideTheLockAfterAResetStillGoIn) {
   MappingSession session(MapperOptions{}, SessionOptions{});
+  EXPECT_EQ(session.cloudPreparerBytes(), 0u) << "no preparer before the first cloud";
   ASSERT_TRUE(session.insert(wallCloud()).ok());
+  // The preparer's evidence window is memory the session holds besides the mapper's (reported).
+  EXPECT_GT(session.cloudPreparerBytes(), 0u);
   session.reset();
   ASSERT_TRUE(session.insert(wallCloud()).ok());  // a new preparer for the new map
   EXPECT_EQ(session.withMapper([](const Mapper& m) { return m.stats().clouds_inserted; }), 1u);

@@ -68,6 +68,8 @@ class CloudPreparer {
   PreparedCloud prepare(const SensorCloud& cloud);
   // The Mapper's inserterGeneration() it was made for.
   std::uint64_t mapGeneration() const { return map_generation_; }
+  // Its own evidence window (the size of the largest frame's box) and cache.
+  std::size_t memoryBytes() const { return inserter_.memoryBytes(); }
 
  private:
   octomap::OcTree geometry_;  // empty: only its key geometry is read

@@ -83,6 +83,10 @@ class MappingSession {
   // The longest a save, pass, reset or input copy held the lock (ms): scans waited that long.
   double longestLockMs() const;
 
+  // What preparing clouds outside the map's lock holds (0 before the first cloud): a second
+  // inserter's evidence window, besides the mapper's own.
+  std::size_t cloudPreparerBytes();
+
   // The mapper without the lock: only for a single-threaded user (the offline tool, tests).
   Mapper& mapperUnlocked() { return mapper_; }
 

@@ -160,6 +160,11 @@ void MappingSession::reset() {
   version_++, changes_++;
 }
 
+std::size_t MappingSession::cloudPreparerBytes() {
+  std::lock_guard<std::mutex> one_cloud(cloud_mutex_);
+  return cloud_preparer_ ? cloud_preparer_->memoryBytes() : 0;
+}
+
 bool MappingSession::reconfigure(const MapperOptions& wanted, std::string* error) {
   std::lock_guard<std::mutex> one(one_at_a_time_);
   Lock lock(this);

@@ -147,15 +147,17 @@ std::string jsonScore(const osm::HeldOutScore& e) {
 }
 
 // Bytes per observed 2D cell (a known slice cell) of the octree and of the slice grid.
-std::string jsonMemory(osm::Mapper& mapper) {
+// `cloud_preparer`: the session's second evidence window for clouds (0 without clouds).
+std::string jsonMemory(osm::Mapper& mapper, std::size_t cloud_preparer) {
   const double cells = std::max<std::size_t>(1, mapper.slice().knownCells());
   const std::size_t octree = mapper.tree().memoryUsage();
   const std::size_t slice = mapper.slice().memoryBytes();
   const std::size_t cache = mapper.inserter().memoryBytes();
   std::ostringstream j;
   j << "{\"octree_bytes\": " << octree << ", \"slice_bytes\": " << slice << ", \"insertion_cache_bytes\": " << cache
-    << ", \"octree_bytes_per_cell\": " << octree / cells << ", \"slice_bytes_per_cell\": " << slice / cells
-    << ", \"insertion_cache_bytes_per_cell\": " << cache / cells << "}";
+    << ", \"cloud_preparer_bytes\": " << cloud_preparer << ", \"octree_bytes_per_cell\": " << octree / cells
+    << ", \"slice_bytes_per_cell\": " << slice / cells << ", \"insertion_cache_bytes_per_cell\": " << cache / cells
+    << "}";
   return j.str();
 }
 
@@ -168,6 +170,7 @@ struct Intake {
   std::size_t refused_reported = 0;
   std::size_t bad_lines = 0;
   std::string end_error;  // a log that ended early (truncated gzip)
+  std::size_t cloud_preparer_bytes = 0;  // the session's window for preparing clouds
 };
 
 // Feeds scans and clouds to the session, holding out every Nth scan and reporting refused ones.
@@ -317,7 +320,7 @@ std::string report(const Args& args, osm::Mapper& mapper, const Intake& intake, 
   }
   json << "}, \"bad_lines\": " << intake.bad_lines << ", \"log_error\": " << jsonString(intake.end_error)
        << ", \"resolution\": " << mapper.options().resolution << ", \"voxels\": " << mapper.tree().getNumLeafNodes()
-       << ", \"known_cells\": " << mapper.slice().knownCells() << ", \"memory\": " << jsonMemory(mapper)
+       << ", \"known_cells\": " << mapper.slice().knownCells() << ", \"memory\": " << jsonMemory(mapper, intake.cloud_preparer_bytes)
        << ", \"insert_ms_per_scan\": "
        << (stats.scans_inserted ? 1000.0 * intake.insert_seconds / stats.scans_inserted : 0.0);
   if (!args.cloud_topic.empty()) {
@@ -370,6 +373,7 @@ int main(int argc, char** argv) {
   Feeder feed(args, session.get(), &intake);
   code = args.log.empty() ? mapBag(args, &feed, &bar, &intake) : mapLog(args, &feed, &bar, &intake);
   if (code != 0) return code;
+  intake.cloud_preparer_bytes = session->cloudPreparerBytes();
   osm::Mapper& mapper = session->mapperUnlocked();  // no other thread here
   if (mapper.stats().scans_inserted == 0 && mapper.stats().clouds_inserted == 0) {
     std::cerr << "octo_slice_map: no scan could be inserted from " << (args.log.empty() ? args.bag : args.log) << "\n";
