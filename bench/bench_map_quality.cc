@@ -44,7 +44,8 @@ bool readBag(const std::string& path, std::vector<osm::Scan>* scans) {
   return true;
 }
 
-bool readLog(const std::string& path, std::vector<osm::Scan>* scans) {
+// A CARMEN log's scans, or a bag's (by the name's ending).
+bool readScans(const std::string& path, std::vector<osm::Scan>* scans) {
   if (path.size() > 4 && path.compare(path.size() - 4, 4, ".bag") == 0) return readBag(path, scans);
   osm::CarmenLogReader reader;
   std::string error;
@@ -103,7 +104,7 @@ int main(int argc, char** argv) {
   for (const Dataset& d : datasets) {
     if (!only.empty() && only != d.name) continue;
     std::vector<osm::Scan> all, train, held;
-    if (!readLog(d.file, &all)) return 1;
+    if (!readScans(d.file, &all)) return 1;
     if (!out_dir.empty()) std::system(("mkdir -p '" + out_dir + "'").c_str());
     for (std::size_t k = 0; k < all.size(); ++k) (hold.holds(k) ? held : train).push_back(all[k]);
     const osm::MapperOptions options;

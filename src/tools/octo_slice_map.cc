@@ -320,8 +320,8 @@ std::string report(const Args& args, osm::Mapper& mapper, const Intake& intake, 
   }
   json << "}, \"bad_lines\": " << intake.bad_lines << ", \"log_error\": " << jsonString(intake.end_error)
        << ", \"resolution\": " << mapper.options().resolution << ", \"voxels\": " << mapper.tree().getNumLeafNodes()
-       << ", \"known_cells\": " << mapper.slice().knownCells() << ", \"memory\": " << jsonMemory(mapper, intake.cloud_preparer_bytes)
-       << ", \"insert_ms_per_scan\": "
+       << ", \"known_cells\": " << mapper.slice().knownCells()
+       << ", \"memory\": " << jsonMemory(mapper, intake.cloud_preparer_bytes) << ", \"insert_ms_per_scan\": "
        << (stats.scans_inserted ? 1000.0 * intake.insert_seconds / stats.scans_inserted : 0.0);
   if (!args.cloud_topic.empty()) {
     json << ", \"clouds\": " << stats.clouds_inserted << ", \"ms_per_cloud\": "
