@@ -3,6 +3,8 @@
 
 #include <cstdio>
 
+#include "../bench/peer_maps.h"  // the peers of issue 18, as bench_map_quality builds them
+#include "octo_slice_mapper/held_out_score.h"
 #include "octo_slice_mapper/map_evaluation.h"
 #include "octo_slice_mapper/mapper.h"
 #include "octo_slice_mapper/sim/session.h"
@@ -71,4 +73,31 @@ TEST_F(SimulatedSessionTest, WalkingPersonLeavesNoTrail) {
   }
   EXPECT_GT(observed, 100);
   EXPECT_LT(occupied, observed / 20) << "at most 5 % of the person's path may still look occupied";
+}
+
+// The issue-18 judgement on data no setting was chosen on: every 10th scan from index 5 held out,
+// each map read as map_server reads its .pgm, the held-out returns cast through it. The global
+// pass's map must be as good as the plain hit/miss grid (max-likelihood) within 0.005, and the
+// incremental slice better than octomap_server's method. (The incremental slice is below the
+// grid here, 0.90 against 0.98, a known gap the README's "Map quality" explains; not asserted.)
+TEST_F(SimulatedSessionTest, OnHeldOutScansTheOptimizedMapMatchesTheHitMissGrid) {
+  std::vector<Scan> train, held;
+  const std::vector<Scan> scans = session_->allScans();
+  const HoldOut hold{10, 5};
+  for (std::size_t k = 0; k < scans.size(); ++k) (hold.holds(k) ? held : train).push_back(scans[k]);
+  const MapperOptions options;
+  Mapper mapper(options);
+  for (const Scan& s : train) ASSERT_TRUE(mapper.insert(s).ok());
+  const GridImage incremental = gridImageOf(mapper.slice());
+  const GridImage optimized = inFrameOf(mapper.optimize(/*warm_start=*/true).grid, incremental);
+  const auto within = [&](const GridImage& grid) { return scoreHeldOut(trinaryOf(grid), held).within_10cm; };
+  const double ours = within(incremental), pass = within(optimized);
+  const double grid = within(bench::hitMissGrid(train, options.resolution, /*max_likelihood=*/true));
+  const double octomap_server =
+      within(bench::octomapServerMap(train, options.resolution, options.slice.min_z, options.slice.max_z));
+  std::printf("[ held out ] incremental %.4f, optimized %.4f, hit/miss grid %.4f, octomap_server %.4f\n", ours, pass,
+              grid, octomap_server);
+  EXPECT_GE(pass, grid - 0.005);
+  EXPECT_GT(ours, octomap_server);
+  EXPECT_GT(held.size(), 100u);
 }
