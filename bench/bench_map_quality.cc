@@ -7,11 +7,13 @@
 // Each map is judged as exported: the map_server reading of its .pgm (trinaryOf), every held-out
 // return cast through it to the first occupied cell (scoreHeldOut, the same rules as
 // shared/tools/map_judge). With --out DIR the maps are also written as DIR/<data>_<map>.{pgm,yaml},
-// so that the shared judge can check the figures. --bag FILE judges a bag's scans instead (topic
-// "scan", placed with the bag's tf in frame "odom"), such as the simulator's sessions: data no
-// setting was chosen on.
+// so that the shared judge can check the figures. After the two logs, the simulator's office tour
+// ("sim_office", made in-process: data no setting was chosen on). --bag FILE judges a bag's scans
+// instead (topic "scan", placed with the bag's tf in frame "odom"), such as the real-robot tour
+// simulate_session --real-robot writes.
 //
-//   bench_map_quality [--data DIR] [--only intel|fr079] [--bag FILE] [--out DIR] [--every N] [--incremental-only]
+//   bench_map_quality [--data DIR] [--only intel|fr079|sim_office] [--bag FILE] [--out DIR] [--every N]
+//                     [--incremental-only]
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -22,6 +24,7 @@
 #include "octo_slice_mapper/carmen_log.h"
 #include "octo_slice_mapper/held_out_score.h"
 #include "octo_slice_mapper/mapper.h"
+#include "octo_slice_mapper/sim/session.h"
 #include "peer_maps.h"
 
 namespace osm = octo_slice_mapper;
@@ -44,8 +47,12 @@ bool readBag(const std::string& path, std::vector<osm::Scan>* scans) {
   return true;
 }
 
-// A CARMEN log's scans, or a bag's (by the name's ending).
+// A CARMEN log's scans, or a bag's (by the name's ending), or for "sim:office" the simulator's tour.
 bool readScans(const std::string& path, std::vector<osm::Scan>* scans) {
+  if (path == "sim:office") {
+    *scans = osm::sim::SimulatedSession(osm::sim::FloorPlan::office(), osm::sim::SessionSpec::officeTour()).allScans();
+    return true;
+  }
   if (path.size() > 4 && path.compare(path.size() - 4, 4, ".bag") == 0) return readBag(path, scans);
   osm::CarmenLogReader reader;
   std::string error;
@@ -88,13 +95,14 @@ int main(int argc, char** argv) {
     else if (a == "--out" && has_value) out_dir = argv[++i];
     else if (a == "--every" && has_value) hold.every = std::atoi(argv[++i]);
     else {
-      std::fprintf(stderr, "usage: bench_map_quality [--data DIR] [--only intel|fr079] [--bag FILE] [--out DIR] "
-                           "[--every N] [--incremental-only]\n");
+      std::fprintf(stderr, "usage: bench_map_quality [--data DIR] [--only intel|fr079|sim_office] [--bag FILE] "
+                           "[--out DIR] [--every N] [--incremental-only]\n");
       return 2;
     }
   }
   std::vector<Dataset> datasets = {{"intel", data_dir + "/intel_corrected/intel-corrected.log.gz"},
-                                   {"fr079", data_dir + "/fr079_corrected/freiburg-079-corrected.log.gz"}};
+                                   {"fr079", data_dir + "/fr079_corrected/freiburg-079-corrected.log.gz"},
+                                   {"sim_office", "sim:office"}};
   if (!bag.empty()) {
     const std::size_t slash = bag.find_last_of('/');
     datasets = {{bag.substr(slash == std::string::npos ? 0 : slash + 1), bag}};
