@@ -8,12 +8,13 @@
 // return cast through it to the first occupied cell (scoreHeldOut, the same rules as
 // shared/tools/map_judge). With --out DIR the maps are also written as DIR/<data>_<map>.{pgm,yaml},
 // so that the shared judge can check the figures. After the two logs, the simulator's office tour
-// ("sim_office", made in-process: data no setting was chosen on). --bag FILE judges a bag's scans
+// (made in-process: data no setting was chosen on), as simulated ("sim_office": its walls on cell
+// boundaries) and moved by half a cell ("sim_office_half_cell"). --bag FILE judges a bag's scans
 // instead (topic "scan", placed with the bag's tf in frame "odom"), such as the real-robot tour
 // simulate_session --real-robot writes.
 //
-//   bench_map_quality [--data DIR] [--only intel|fr079|sim_office] [--bag FILE] [--out DIR] [--every N]
-//                     [--incremental-only]
+//   bench_map_quality [--data DIR] [--only intel|fr079|sim_office|sim_office_half_cell] [--bag FILE]
+//                     [--out DIR] [--every N] [--incremental-only]
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -47,10 +48,15 @@ bool readBag(const std::string& path, std::vector<osm::Scan>* scans) {
   return true;
 }
 
-// A CARMEN log's scans, or a bag's (by the name's ending), or for "sim:office" the simulator's tour.
+// A CARMEN log's scans, or a bag's (by the name's ending), or for "sim:office:D" the simulator's
+// tour moved by D metres in x and y (its walls lie on round coordinates, so on cell boundaries:
+// moved, they lie inside cells as a real building's mostly do).
 bool readScans(const std::string& path, std::vector<osm::Scan>* scans) {
-  if (path == "sim:office") {
+  const std::string sim = "sim:office:";
+  if (path.compare(0, sim.size(), sim) == 0) {
+    const double shift = std::atof(path.c_str() + sim.size());
     *scans = osm::sim::SimulatedSession(osm::sim::FloorPlan::office(), osm::sim::SessionSpec::officeTour()).allScans();
+    for (osm::Scan& scan : *scans) scan.sensor_pose.translation() += Eigen::Vector3d(shift, shift, 0.0);
     return true;
   }
   if (path.size() > 4 && path.compare(path.size() - 4, 4, ".bag") == 0) return readBag(path, scans);
@@ -95,14 +101,15 @@ int main(int argc, char** argv) {
     else if (a == "--out" && has_value) out_dir = argv[++i];
     else if (a == "--every" && has_value) hold.every = std::atoi(argv[++i]);
     else {
-      std::fprintf(stderr, "usage: bench_map_quality [--data DIR] [--only intel|fr079|sim_office] [--bag FILE] "
-                           "[--out DIR] [--every N] [--incremental-only]\n");
+      std::fprintf(stderr, "usage: bench_map_quality [--data DIR] [--only intel|fr079|sim_office|sim_office_half_cell] "
+                           "[--bag FILE] [--out DIR] [--every N] [--incremental-only]\n");
       return 2;
     }
   }
   std::vector<Dataset> datasets = {{"intel", data_dir + "/intel_corrected/intel-corrected.log.gz"},
                                    {"fr079", data_dir + "/fr079_corrected/freiburg-079-corrected.log.gz"},
-                                   {"sim_office", "sim:office"}};
+                                   {"sim_office", "sim:office:0"},
+                                   {"sim_office_half_cell", "sim:office:0.025"}};
   if (!bag.empty()) {
     const std::size_t slash = bag.find_last_of('/');
     datasets = {{bag.substr(slash == std::string::npos ? 0 : slash + 1), bag}};

@@ -78,26 +78,33 @@ TEST_F(SimulatedSessionTest, WalkingPersonLeavesNoTrail) {
 // The issue-18 judgement on data no setting was chosen on: every 10th scan from index 5 held out,
 // each map read as map_server reads its .pgm, the held-out returns cast through it. The global
 // pass's map must be as good as the plain hit/miss grid (max-likelihood) within 0.005, and the
-// incremental slice better than octomap_server's method. (The incremental slice is below the
-// grid here, 0.90 against 0.98, a known gap the README's "Map quality" explains; not asserted.)
+// incremental slice better than octomap_server's method; with the tour as simulated (its walls on
+// cell boundaries) and moved by half a cell (walls inside cells, as a real building's mostly are).
+// (The incremental slice is below the grid, 0.90 and 0.94 against 0.98 and 0.95, a known gap the
+// README's "Map quality" explains; not asserted.)
 TEST_F(SimulatedSessionTest, OnHeldOutScansTheOptimizedMapMatchesTheHitMissGrid) {
-  std::vector<Scan> train, held;
-  const std::vector<Scan> scans = session_->allScans();
-  const HoldOut hold{10, 5};
-  for (std::size_t k = 0; k < scans.size(); ++k) (hold.holds(k) ? held : train).push_back(scans[k]);
-  const MapperOptions options;
-  Mapper mapper(options);
-  for (const Scan& s : train) ASSERT_TRUE(mapper.insert(s).ok());
-  const GridImage incremental = gridImageOf(mapper.slice());
-  const GridImage optimized = inFrameOf(mapper.optimize(/*warm_start=*/true).grid, incremental);
-  const auto within = [&](const GridImage& grid) { return scoreHeldOut(trinaryOf(grid), held).within_10cm; };
-  const double ours = within(incremental), pass = within(optimized);
-  const double grid = within(bench::hitMissGrid(train, options.resolution, /*max_likelihood=*/true));
-  const double octomap_server =
-      within(bench::octomapServerMap(train, options.resolution, options.slice.min_z, options.slice.max_z));
-  std::printf("[ held out ] incremental %.4f, optimized %.4f, hit/miss grid %.4f, octomap_server %.4f\n", ours, pass,
-              grid, octomap_server);
-  EXPECT_GE(pass, grid - 0.005);
-  EXPECT_GT(ours, octomap_server);
-  EXPECT_GT(held.size(), 100u);
+  for (const double shift : {0.0, 0.025}) {
+    std::vector<Scan> train, held;
+    std::vector<Scan> scans = session_->allScans();
+    const HoldOut hold{10, 5};
+    for (std::size_t k = 0; k < scans.size(); ++k) {
+      scans[k].sensor_pose.translation() += Eigen::Vector3d(shift, shift, 0.0);
+      (hold.holds(k) ? held : train).push_back(scans[k]);
+    }
+    const MapperOptions options;
+    Mapper mapper(options);
+    for (const Scan& s : train) ASSERT_TRUE(mapper.insert(s).ok());
+    const GridImage incremental = gridImageOf(mapper.slice());
+    const GridImage optimized = inFrameOf(mapper.optimize(/*warm_start=*/true).grid, incremental);
+    const auto within = [&](const GridImage& grid) { return scoreHeldOut(trinaryOf(grid), held).within_10cm; };
+    const double ours = within(incremental), pass = within(optimized);
+    const double grid = within(bench::hitMissGrid(train, options.resolution, /*max_likelihood=*/true));
+    const double octomap_server =
+        within(bench::octomapServerMap(train, options.resolution, options.slice.min_z, options.slice.max_z));
+    std::printf("[ held out, moved %.3f m ] incremental %.4f, optimized %.4f, hit/miss grid %.4f, octomap_server %.4f\n",
+                shift, ours, pass, grid, octomap_server);
+    EXPECT_GE(pass, grid - 0.005) << "moved " << shift;
+    EXPECT_GT(ours, octomap_server) << "moved " << shift;
+    EXPECT_GT(held.size(), 100u);
+  }
 }
