@@ -167,8 +167,8 @@ TEST(LayerCache, RepeatsUpdateNodeArithmeticPerVoxel) {
   float value = 0.0f;
   ASSERT_EQ(cache.lookup(high[0], high[1], high[2], &value), LayerCache::Lookup::kKnown);
   EXPECT_EQ(value, reference.search(high)->getLogOdds());
-  EXPECT_EQ(cache.lookup(high[0], high[1] + 1, high[2], &value), LayerCache::Lookup::kNotCached)
-      << "a voxel the cache never loaded is the tree's business";
+  EXPECT_EQ(cache.lookup(high[0], high[1] + 1, high[2], &value), LayerCache::Lookup::kUnknown)
+      << "a new tile loads what the tree holds of its layer: nothing there";
   EXPECT_GT(cache.dirtyCount(), 0u);
   cache.flush();
   EXPECT_EQ(cache.dirtyCount(), 0u);
@@ -177,8 +177,9 @@ TEST(LayerCache, RepeatsUpdateNodeArithmeticPerVoxel) {
   expectSameTree(cached, reference);
 }
 
-// A tile over ground the octree holds nothing of starts as known-unknown (no search per voxel);
-// one next to existing nodes reads them.
+// A tile over ground the octree holds nothing of starts as known-unknown (one search); one next
+// to existing nodes loads them all, once, when it is made: the voxels an update reaches and the
+// ones the slice reads then need no search of their own.
 TEST(LayerCache, NewTileKnowsWhatTheOctreeHolds) {
   octomap::OcTree tree(0.1);
   const octomap::OcTreeKey seen = tree.coordToKey(0.05, 0.05, 0.05);
@@ -188,11 +189,45 @@ TEST(LayerCache, NewTileKnowsWhatTheOctreeHolds) {
   ASSERT_TRUE(cache.apply(next, 0.5f));
   ASSERT_TRUE(cache.apply(far, 0.5f));
   float value = 0.0f;
-  EXPECT_EQ(cache.lookup(seen[0], seen[1], seen[2], &value), LayerCache::Lookup::kNotCached);
+  ASSERT_EQ(cache.lookup(seen[0], seen[1], seen[2], &value), LayerCache::Lookup::kKnown);
+  EXPECT_EQ(value, 1.0f) << "loaded with its tile";
+  EXPECT_EQ(cache.lookup(seen[0], seen[1] + 1, seen[2], &value), LayerCache::Lookup::kUnknown);
   EXPECT_EQ(cache.lookup(far[0] + 1, far[1], far[2], &value), LayerCache::Lookup::kUnknown);
   ASSERT_TRUE(cache.apply(seen, 0.5f));
   ASSERT_EQ(cache.lookup(seen[0], seen[1], seen[2], &value), LayerCache::Lookup::kKnown);
-  EXPECT_EQ(value, 1.5f) << "the octree's value was loaded before the update";
+  EXPECT_EQ(value, 1.5f) << "the octree's value was the start of the update";
+}
+
+// A pruned leaf spans several layers and columns: a tile of one of its layers takes its value
+// for each voxel it covers, and a tile of the layer just above it takes nothing from it (OctoMap's
+// box iterator hands on such neighbours too).
+TEST(LayerCache, NewTileLoadsPrunedLeavesOfItsLayerOnly) {
+  octomap::OcTree tree(0.1);
+  const octomap::OcTreeKey corner(32768, 32768, 32768);  // a 4 x 4 x 4 block (a pruned depth-14 leaf) in one tile
+  for (unsigned dz = 0; dz < 4; ++dz) {
+    for (unsigned dy = 0; dy < 4; ++dy) {
+      for (unsigned dx = 0; dx < 4; ++dx) tree.setNodeValue(octomap::OcTreeKey(corner[0] + dx, corner[1] + dy, corner[2] + dz), 2.0f);
+    }
+  }
+  tree.prune();
+  unsigned depth = 0;
+  ASSERT_TRUE(tree.search(corner, 0) != nullptr);
+  for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it) depth = it.getDepth();
+  ASSERT_EQ(depth, tree.getTreeDepth() - 2) << "the block should be one pruned leaf";
+  LayerCache cache(&tree);
+  ASSERT_TRUE(cache.apply(octomap::OcTreeKey(corner[0] + 10, corner[1], corner[2] + 1), 0.5f));  // makes layer z+1's tile
+  ASSERT_TRUE(cache.apply(octomap::OcTreeKey(corner[0] + 10, corner[1], corner[2] + 4), 0.5f));  // the layer above the block
+  float value = 0.0f;
+  for (unsigned dy = 0; dy < 5; ++dy) {
+    for (unsigned dx = 0; dx < 5; ++dx) {
+      const bool inside = dx < 4 && dy < 4;
+      const auto in_block = cache.lookup(corner[0] + dx, corner[1] + dy, corner[2] + 1, &value);
+      EXPECT_EQ(in_block, inside ? LayerCache::Lookup::kKnown : LayerCache::Lookup::kUnknown) << dx << "," << dy;
+      if (inside) EXPECT_EQ(value, 2.0f);
+      EXPECT_EQ(cache.lookup(corner[0] + dx, corner[1] + dy, corner[2] + 4, &value), LayerCache::Lookup::kUnknown)
+          << dx << "," << dy;
+    }
+  }
 }
 
 // The Mapper reads through the cache: its slice equals one rebuilt from the flushed tree, and

@@ -49,13 +49,35 @@ void LayerCache::cover(Layer* l, unsigned kx0, unsigned ky0, unsigned kx1, unsig
   l->tx0 = nx0, l->ty0 = ny0, l->ntx = w, l->nty = h;
 }
 
-// A tile whose 64 x 64 voxels the octree holds none of (no node at the depth that spans them;
-// typical while mapping new ground) starts all kUnknown: one search instead of one per voxel.
+// A new tile starts with every voxel of its layer the octree holds loaded, the rest kUnknown.
+// Where the octree holds none of the 64 x 64 voxels (no node at the depth that spans them;
+// typical while mapping new ground) one search tells. Else one walk over the tile's part of the
+// layer: loaded voxel by voxel on first use instead, a tilted scan's new layers cost a root-to-leaf
+// search per voxel it changed and per layer of every slice column it changed (issue 21).
 std::unique_ptr<LayerCache::Tile> LayerCache::newTile(std::uint16_t z, unsigned kx, unsigned ky) const {
   auto tile = std::make_unique<Tile>();
-  const unsigned depth = tree_->getTreeDepth() - kTileBits;
-  if (!tree_->search(octomap::OcTreeKey(kx, ky, z), depth)) {
-    std::fill(std::begin(tile->state), std::end(tile->state), kUnknown);
+  std::fill(std::begin(tile->state), std::end(tile->state), kUnknown);
+  const unsigned depth = tree_->getTreeDepth();
+  if (!tree_->search(octomap::OcTreeKey(kx, ky, z), depth - kTileBits)) return tile;
+  const unsigned x0 = kx & ~kTileMask, y0 = ky & ~kTileMask;
+  const octomap::OcTreeKey lo(x0, y0, z), hi(x0 + kTileMask, y0 + kTileMask, z);
+  for (auto it = tree_->begin_leafs_bbx(lo, hi), end = tree_->end_leafs_bbx(); it != end; ++it) {
+    // A leaf above the bottom (pruned) covers `span` keys per axis from its lower corner.
+    const unsigned span = 1u << (depth - it.getDepth());
+    const octomap::OcTreeKey k = it.getKey();
+    const unsigned lx = k[0] & ~(span - 1), ly = k[1] & ~(span - 1), lz = k[2] & ~(span - 1);
+    // The iterator also hands on leaves just outside the box (its overlap test is one key wide).
+    if (z < lz || z > lz + span - 1) continue;
+    const unsigned ix0 = std::max(lx, x0), ix1 = std::min(lx + span - 1, x0 + kTileMask);
+    const unsigned iy0 = std::max(ly, y0), iy1 = std::min(ly + span - 1, y0 + kTileMask);
+    const float value = it->getLogOdds();
+    for (unsigned y = iy0; y <= iy1; ++y) {
+      for (unsigned x = ix0; x <= ix1; ++x) {
+        const unsigned index = cellIndex(x, y);
+        tile->value[index] = value;
+        tile->state[index] = kKnown;
+      }
+    }
   }
   return tile;
 }
