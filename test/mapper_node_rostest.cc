@@ -331,7 +331,7 @@ TEST_F(MapperNodeTest, DiagnosticsCountSkippedScansPerReason) {
   }, 20.0)) << "unknown_frame " << diagnostic("skipped_unknown_frame") << " (before " << unknown_before
             << "), length_mismatch " << diagnostic("skipped_length_mismatch") << ", waiting " << diagnostic("waiting_for_tf");
   EXPECT_GE(diagnostic("scans_received"), diagnostic("scans_inserted") + diagnostic("scans_skipped"));
-  EXPECT_GT(diagnostic("voxels"), 0.0);
+  EXPECT_GT(diagnostic("octree_nodes"), 0.0);
 }
 
 // A point cloud in a frame tf never hears of is given up after ~transform_timeout as well.

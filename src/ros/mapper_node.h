@@ -67,7 +67,7 @@ class MapperNode {
   // A message stamped well before the last one: a bag restarted (--loop) or /clock reset.
   void checkTimeJump(const ros::Time& stamp);
   void expireTick(const ros::WallTimerEvent&);
-  void publishDiagnostics(const ros::TimerEvent&);
+  void publishDiagnostics(const ros::WallTimerEvent&);
 
   ros::NodeHandle nh_, pnh_;
   NodeOptions options_;
@@ -78,7 +78,7 @@ class MapperNode {
   Input<sensor_msgs::PointCloud2> clouds_;
   MapPublisher publisher_;
   ros::Publisher diagnostics_pub_;
-  ros::Timer publish_timer_, diagnostics_timer_;
+  ros::WallTimer publish_timer_, diagnostics_timer_;
   ros::WallTimer expire_timer_;
 
   mutable std::mutex counters_mutex_;  // guards the counters and what follows
