@@ -88,7 +88,7 @@ TEST_P(LayerCacheBothRules, FastPathGivesTheSameOctreeAsUpdateNodePerVoxel) {
   std::mt19937 rng(5);
   std::uniform_int_distribution<int> coin(0, 9);
   const auto times = session.scanTimes();
-  std::size_t level = 0, tilted = 0, flushes = 0;
+  std::size_t level = 0, tilted = 0, flushes = 0, partial_flushes = 0;
   for (std::size_t i = 0; i < times.size(); i += 3) {
     Scan scan = session.scanAt(times[i], &rng);
     if (coin(rng) == 0) {  // tilt the laser a little: the generic 3D path
@@ -102,12 +102,16 @@ TEST_P(LayerCacheBothRules, FastPathGivesTheSameOctreeAsUpdateNodePerVoxel) {
     if (coin(rng) == 0) {
       inserter.flush();
       ++flushes;
+    } else if (coin(rng) < 3) {  // the oldest part of the backlog only, as the Mapper bounds it
+      inserter.cache().flushOldest(inserter.cache().dirtyCount() / (1 + coin(rng)));
+      ++partial_flushes;
     }
   }
   inserter.flush();
   EXPECT_GT(level, 100u);
   EXPECT_GT(tilted, 10u);
   EXPECT_GT(flushes, 10u);
+  EXPECT_GT(partial_flushes, 20u);
   EXPECT_GT(reference.getNumLeafNodes(), 10000u);
   expectSameTree(fast, reference);
 }
@@ -174,6 +178,40 @@ TEST(LayerCache, RepeatsUpdateNodeArithmeticPerVoxel) {
   EXPECT_EQ(cache.dirtyCount(), 0u);
   expectSameTree(cached, reference);
   cache.flush();  // nothing left to write: no change
+  expectSameTree(cached, reference);
+}
+
+// flushOldest writes the values that have waited longest, leaves the rest waiting, and a voxel
+// changed again after being written waits again (behind the others).
+TEST(LayerCache, FlushOldestWritesTheLongestWaitingFirst) {
+  octomap::OcTree cached(0.1), reference(0.1);
+  for (octomap::OcTree* t : {&cached, &reference}) clampLikeTheMapper(t);
+  LayerCache cache(&cached);
+  std::vector<octomap::OcTreeKey> keys;
+  for (unsigned i = 0; i < 100; ++i) keys.emplace_back(32768 + i, 32768 + (i * 7) % 13, 32770);
+  for (const octomap::OcTreeKey& k : keys) {
+    ASSERT_TRUE(cache.apply(k, 0.85f));
+    reference.updateNode(k, 0.85f);
+  }
+  cache.flushOldest(30);
+  EXPECT_EQ(cache.dirtyCount(), 70u);
+  for (unsigned i = 0; i < 100; ++i) {
+    const octomap::OcTreeNode* node = cached.search(keys[i]);
+    EXPECT_EQ(node != nullptr, i < 30) << "voxel " << i;
+    if (node) EXPECT_EQ(node->getLogOdds(), 0.85f);
+  }
+  ASSERT_TRUE(cache.apply(keys[0], -0.4f));  // written, changed again: waits behind the other 70
+  reference.updateNode(keys[0], -0.4f);
+  EXPECT_EQ(cache.dirtyCount(), 71u);
+  cache.flushOldest(60);  // 30..89: past the middle, so the written part is dropped
+  EXPECT_EQ(cache.dirtyCount(), 11u);
+  EXPECT_EQ(cached.search(keys[89])->getLogOdds(), 0.85f);
+  EXPECT_EQ(cached.search(keys[90]), nullptr);
+  EXPECT_EQ(cached.search(keys[0])->getLogOdds(), 0.85f) << "its new value has not waited long enough";
+  cache.flushOldest(1000);  // more than wait: all of them
+  EXPECT_EQ(cache.dirtyCount(), 0u);
+  cached.updateInnerOccupancy();
+  reference.updateInnerOccupancy();
   expectSameTree(cached, reference);
 }
 
@@ -254,6 +292,46 @@ TEST(LayerCache, MapperSliceAndTreeSeeCachedValues) {
   }
   EXPECT_GT(known, 100);
   (void)incremental;
+}
+
+// The Mapper keeps the cache's backlog within max_unflushed_voxels after every scan and every
+// cloud (a camera alone too), writing the longest-waiting voxels, and its octree ends as one
+// mapped without any bound.
+TEST(LayerCache, MapperBoundsTheBacklogAfterScansAndClouds) {
+  const sim::SimulatedSession session(sim::FloorPlan::office(), sim::SessionSpec::officeTour());
+  MapperOptions bounded_options, unbounded_options;
+  bounded_options.max_unflushed_voxels = 3000;
+  unbounded_options.max_unflushed_voxels = std::size_t{1} << 30;
+  Mapper bounded(bounded_options), unbounded(unbounded_options);
+  std::mt19937 rng(4);
+  const auto times = session.scanTimes();
+  std::size_t most = 0, flushed_some = 0;
+  for (std::size_t i = 0; i < times.size(); i += 4) {
+    Scan scan = session.scanAt(times[i], &rng);
+    if (i % 40 == 0) scan.sensor_pose.rotate(Eigen::AngleAxisd(0.02, Eigen::Vector3d::UnitX()));
+    const std::size_t before = bounded.flushedTree().size();
+    ASSERT_TRUE(bounded.insert(scan).ok());
+    ASSERT_TRUE(unbounded.insert(scan).ok());
+    most = std::max(most, bounded.inserter().cache().dirtyCount());
+    flushed_some += bounded.flushedTree().size() != before;
+  }
+  EXPECT_LE(most, 3000u);
+  EXPECT_GT(flushed_some, 5u) << "the bound should have been reached";
+  EXPECT_GT(unbounded.inserter().cache().dirtyCount(), 3000u) << "the session should exceed the bound";
+  // A camera's clouds alone: a wall of points 2 m ahead, moved a little each frame.
+  const Eigen::Vector3d camera(0.1, 0.0, 0.3);
+  for (int frame = 0; frame < 40; ++frame) {
+    std::vector<Eigen::Vector3f> points;
+    for (int u = 0; u < 60; ++u) {
+      for (int v = 0; v < 40; ++v) {
+        points.emplace_back(2.0f + 0.01f * float(frame % 7), -1.5f + 0.05f * float(u), 0.05f * float(v));
+      }
+    }
+    ASSERT_TRUE(bounded.insertPoints(camera, points).ok());
+    ASSERT_TRUE(unbounded.insertPoints(camera, points).ok());
+    EXPECT_LE(bounded.inserter().cache().dirtyCount(), 3000u) << "frame " << frame;
+  }
+  expectSameTree(bounded.tree(), unbounded.tree());
 }
 
 // A snapshot lends the octree: another thread reads it (here: saves it) while scans keep coming;

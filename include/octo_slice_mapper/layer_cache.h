@@ -91,9 +91,12 @@ class LayerCache {
   void forget(const octomap::OcTreeKey& key);
   // Writes every value the octree lags behind into it. The cache stays valid.
   void flush();
+  // Writes the `count` values that have waited longest (dirty since the earliest), so that a
+  // backlog can be kept bounded a little at a time instead of all at once.
+  void flushOldest(std::size_t count);
   // Forgets everything (after the octree was changed behind the cache's back, e.g. replaced).
   void clear();
-  std::size_t dirtyCount() const { return dirty_.size(); }
+  std::size_t dirtyCount() const { return dirty_.size() - dirty_head_; }
   std::size_t memoryBytes() const;
 
  private:
@@ -108,7 +111,10 @@ class LayerCache {
   octomap::OcTree* tree_;
   bool hold_everything_ = false;
   std::vector<std::unique_ptr<Layer>> layers_;
-  std::vector<Ref> dirty_;  // voxels the octree lags behind
+  void writeBack(std::size_t begin, std::size_t end);  // dirty_[begin, end) into the octree
+
+  std::vector<Ref> dirty_;  // voxels the octree lags behind, from dirty_head_ on, oldest first
+  std::size_t dirty_head_ = 0;  // dirty_[0, dirty_head_) were written by flushOldest
   std::vector<KeyUpdate> flush_buffer_;
 };
 

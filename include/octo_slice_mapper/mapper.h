@@ -29,9 +29,10 @@ struct MapperOptions {
   ScanStoreOptions scan_store;
   // Its no_return_range and max_range are taken from `insert`, so both passes read a scan alike.
   GlobalOptimizerOptions optimizer;
-  // At most this many voxels may wait in the insertion cache: more are written into the octree
-  // after a scan, so that bringing the octree up to date for a reader stays short.
-  std::size_t max_unflushed_voxels = 20000;
+  // At most this many voxels may wait in the insertion cache: beyond it the longest-waiting are
+  // written into the octree after a scan (an eighth of it at a time), so that bringing the octree
+  // up to date for a reader (a save, the voxel markers) stays short: ~100 ns per voxel.
+  std::size_t max_unflushed_voxels = 100000;
 };
 
 // Gives `tree` the clamping bounds and occupancy threshold the mapper maps with (also for
@@ -152,6 +153,7 @@ class Mapper {
   // cut follow `insert`.
   static void followInsertion(MapperOptions* options);
   InsertResult record(InsertResult result, bool cloud);  // slice update + statistics
+  void boundUnflushed();  // keeps the insertion cache's backlog within max_unflushed_voxels
   // A snapshot's copies (the slice, its band, the kept scans if asked), without the octree.
   MapSnapshot sliceAndScans(bool with_scans) const;
 

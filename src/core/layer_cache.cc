@@ -142,27 +142,48 @@ void LayerCache::forget(const octomap::OcTreeKey& key) {
   state = static_cast<std::uint8_t>(state & ~kLoadMask);  // kUnloaded
 }
 
-void LayerCache::flush() {
-  if (dirty_.empty()) return;
+void LayerCache::writeBack(std::size_t begin, std::size_t end) {
   flush_buffer_.clear();
-  flush_buffer_.reserve(dirty_.size());
-  for (const Ref& ref : dirty_) {
+  flush_buffer_.reserve(end - begin);
+  for (std::size_t i = begin; i < end; ++i) {
+    const Ref& ref = dirty_[i];
     flush_buffer_.push_back({ref.key, *ref.value});
     *ref.state = static_cast<std::uint8_t>(*ref.state & ~kDirty);
   }
-  dirty_.clear();
   setValuesInTreeOrder(tree_, &flush_buffer_);
+}
+
+void LayerCache::flush() {
+  if (dirtyCount() == 0) return;
+  writeBack(dirty_head_, dirty_.size());
+  dirty_.clear();
+  dirty_head_ = 0;
   // A large one-off flush (offline mapping flushes once, at the end) must not keep its buffers.
-  constexpr std::size_t kKeepCapacity = std::size_t{1} << 16;
+  constexpr std::size_t kKeepCapacity = std::size_t{1} << 17;
   if (flush_buffer_.capacity() > kKeepCapacity) {
     flush_buffer_ = {};
     dirty_ = {};
   }
 }
 
+void LayerCache::flushOldest(std::size_t count) {
+  const std::size_t end = dirty_head_ + std::min(count, dirtyCount());
+  if (end == dirty_head_) return;
+  writeBack(dirty_head_, end);
+  dirty_head_ = end;
+  if (dirty_head_ == dirty_.size()) {
+    dirty_.clear();
+    dirty_head_ = 0;
+  } else if (dirty_head_ > dirty_.size() / 2) {  // the written part dropped now and then: O(1) per entry
+    dirty_.erase(dirty_.begin(), dirty_.begin() + std::ptrdiff_t(dirty_head_));
+    dirty_head_ = 0;
+  }
+}
+
 void LayerCache::clear() {
   layers_.clear();
   dirty_.clear();
+  dirty_head_ = 0;
 }
 
 std::size_t LayerCache::memoryBytes() const {

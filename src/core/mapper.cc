@@ -56,8 +56,18 @@ void Mapper::install(std::unique_ptr<octomap::OcTree> tree, const MapperOptions&
 InsertResult Mapper::insert(const Scan& scan) {
   InsertResult result = record(inserter_->insert(scan), /*cloud=*/false);
   if (result.ok() && options_.keep_scans) store_.add(scan);
-  if (!lent_ && inserter_->cache().dirtyCount() > options_.max_unflushed_voxels) inserter_->flush();
   return result;
+}
+
+// Above the bound, the voxels that have waited longest are written, an eighth of the bound at a
+// time: a flush per scan stays as short as one of 12 500 voxels, while a voxel stays in the cache
+// long enough for the many scans that keep changing it to cost one write (a tilted scan changes
+// 2 000 voxels, many of them again and again, issue 21).
+void Mapper::boundUnflushed() {
+  if (lent_) return;
+  LayerCache& cache = inserter_->cache();
+  const std::size_t bound = options_.max_unflushed_voxels;
+  if (cache.dirtyCount() > bound) cache.flushOldest(cache.dirtyCount() - (bound - bound / 8));
 }
 
 InsertResult Mapper::insertPoints(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points) {
@@ -87,6 +97,7 @@ InsertResult Mapper::record(InsertResult result, bool cloud) {
     return result;
   }
   slice_->updateColumns(result.updated_keys, result.touched);
+  boundUnflushed();  // after clouds too: a camera alone was never flushed before
   (cloud ? stats_.clouds_inserted : stats_.scans_inserted)++;
   (cloud ? stats_.cloud_points : stats_.readings) += result.readings;
   stats_.voxel_updates += result.voxels_updated;
