@@ -89,6 +89,35 @@ __attribute__((always_inline)) inline bool walkSpace(int& i, int& j, int& k, Wal
   }
 }
 
+// The same walk, cell for cell and t for t, for a segment whose z steps are few among its steps
+// (a scan tilted by a degree or two: a 12 m ray changes layer a handful of times in 240 steps).
+// The rare z step is a branch, predicted right almost every time; x against y stays branch-free.
+// Fewer instructions per step than walkSpace, which pays for selecting z every step; for a steep
+// ray (a depth camera's) the branch would be mispredicted, so traverseVoxels picks per segment.
+template <typename Visit>
+__attribute__((always_inline)) inline bool walkSpaceFewZ(int& i, int& j, int& k, WalkAxis x, WalkAxis y, WalkAxis z,
+                                                         int steps, Visit&& visit) {
+  double tx = x.next, ty = y.next, tz = z.next;
+  for (;; --steps) {
+    const bool x_before_y = tx < ty;
+    const double t_xy = x_before_y ? tx : ty;
+    if (__builtin_expect(!(t_xy < tz), 0)) {  // z next, as walkSpace decides it
+      if (!detail::keepWalking(visit, i, j, k, tz)) return false;
+      if (steps <= 0) return true;
+      k += z.step;
+      tz += z.delta;
+      continue;
+    }
+    if (!detail::keepWalking(visit, i, j, k, t_xy)) return false;
+    if (steps <= 0) return true;
+    const double next_tx = tx + x.delta, next_ty = ty + y.delta;
+    i = x_before_y ? i + x.step : i;
+    j = x_before_y ? j : j + y.step;
+    tx = x_before_y ? next_tx : tx;
+    ty = x_before_y ? ty : next_ty;
+  }
+}
+
 // Octree voxels, in order, from the voxel of `from` (key from_key) to the voxel of `to` (to_key),
 // both included, as visit(key, t_exit) with t_exit a fraction of the segment. Exactly one axis
 // advances per step, so the end voxel is due after the keys' distance in steps; where rounding
@@ -104,10 +133,15 @@ inline void traverseVoxels(const octomap::OcTree& tree, const Eigen::Vector3d& f
     steps += std::abs(int(to_key[d]) - int(from_key[d]));
   }
   int i = from_key[0], j = from_key[1], k = from_key[2];
-  walkSpace(i, j, k, axes[0], axes[1], axes[2], steps,
-            [&visit](int vi, int vj, int vk, double t_exit) __attribute__((always_inline)) {
-              visit(octomap::OcTreeKey(vi, vj, vk), t_exit);
-            });
+  const auto at_key = [&visit](int vi, int vj, int vk, double t_exit) __attribute__((always_inline)) {
+    visit(octomap::OcTreeKey(vi, vj, vk), t_exit);
+  };
+  // One z step in 16 or fewer: nearly level (the same cells either way, only the speed differs).
+  if (16 * std::abs(int(to_key[2]) - int(from_key[2])) <= steps) {
+    walkSpaceFewZ(i, j, k, axes[0], axes[1], axes[2], steps, at_key);
+  } else {
+    walkSpace(i, j, k, axes[0], axes[1], axes[2], steps, at_key);
+  }
   if (i != to_key[0] || j != to_key[1] || k != to_key[2]) visit(to_key, 1.0);
 }
 
