@@ -41,6 +41,18 @@ __attribute__((always_inline)) inline bool keepWalking(Visit& visit, Args... arg
     return visit(args...);
   }
 }
+
+// One step in the x-y plane: x when `x_first`, else y. Both candidates computed, one selected
+// (conditional moves): the loop-carried chain is a compare and a select, not a load indexed by
+// the compare (measured: 0.40 -> 0.36 ms/scan).
+__attribute__((always_inline)) inline void stepPlane(bool x_first, const WalkAxis& x, const WalkAxis& y, int& i, int& j,
+                                                     double& tx, double& ty) {
+  const double next_tx = tx + x.delta, next_ty = ty + y.delta;
+  i = x_first ? i + x.step : i;
+  j = x_first ? j : j + y.step;
+  tx = x_first ? next_tx : tx;
+  ty = x_first ? ty : next_ty;
+}
 }  // namespace detail
 
 // Visits cell (i, j) and the `steps` cells after it, as visit(i, j, t_exit): t_exit is the
@@ -55,13 +67,7 @@ __attribute__((always_inline)) inline bool walkPlane(int& i, int& j, WalkAxis x,
     const bool x_first = tx < ty;
     if (!detail::keepWalking(visit, i, j, std::min(tx, ty))) return false;
     if (steps <= 0) return true;
-    // Both candidates computed, one selected (conditional moves): the loop-carried chain is a
-    // compare and a select, not a load indexed by the compare (measured: 0.40 -> 0.36 ms/scan).
-    const double next_tx = tx + x.delta, next_ty = ty + y.delta;
-    i = x_first ? i + x.step : i;
-    j = x_first ? j : j + y.step;
-    tx = x_first ? next_tx : tx;
-    ty = x_first ? ty : next_ty;
+    detail::stepPlane(x_first, x, y, i, j, tx, ty);
   }
 }
 
@@ -110,11 +116,7 @@ __attribute__((always_inline)) inline bool walkSpaceFewZ(int& i, int& j, int& k,
     }
     if (!detail::keepWalking(visit, i, j, k, t_xy)) return false;
     if (steps <= 0) return true;
-    const double next_tx = tx + x.delta, next_ty = ty + y.delta;
-    i = x_before_y ? i + x.step : i;
-    j = x_before_y ? j : j + y.step;
-    tx = x_before_y ? next_tx : tx;
-    ty = x_before_y ? ty : next_ty;
+    detail::stepPlane(x_before_y, x, y, i, j, tx, ty);  // as walkPlane steps
   }
 }
 
