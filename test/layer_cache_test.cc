@@ -236,6 +236,49 @@ TEST(LayerCache, NewTileKnowsWhatTheOctreeHolds) {
   EXPECT_EQ(value, 1.5f) << "the octree's value was the start of the update";
 }
 
+// A voxel's value slot also says whether it has one: unknown, forgotten (read the octree again)
+// or a log-odds. Dirty marks are per voxel, even for neighbours in one row of a tile.
+TEST(LayerCache, ForgottenVoxelIsReadAgainAndDirtyMarksArePerVoxel) {
+  octomap::OcTree tree(0.1);
+  clampLikeTheMapper(&tree);
+  LayerCache cache(&tree);
+  const octomap::OcTreeKey a(32768, 32768, 32770), b(32769, 32768, 32770), c(32768 + 63, 32768, 32770);
+  ASSERT_TRUE(cache.apply(a, 0.85f));
+  ASSERT_TRUE(cache.apply(b, -0.4f));
+  EXPECT_EQ(cache.dirtyCount(), 2u);
+  ASSERT_TRUE(cache.apply(a, 0.85f));
+  EXPECT_EQ(cache.dirtyCount(), 2u) << "a voxel already waiting is listed once";
+  cache.flushOldest(1);  // a only
+  EXPECT_EQ(tree.search(a)->getLogOdds(), 1.7f);
+  EXPECT_EQ(tree.search(b), nullptr);
+  ASSERT_TRUE(cache.apply(c, 0.85f));
+  EXPECT_EQ(cache.dirtyCount(), 2u) << "b and c wait; a was written";
+  cache.flush();
+  EXPECT_EQ(tree.search(b)->getLogOdds(), -0.4f);
+  EXPECT_EQ(tree.search(c)->getLogOdds(), 0.85f);
+
+  // The octree changed behind the cache's back; after forget() the cache reads it again.
+  tree.setNodeValue(a, -1.0f);
+  float value = 0.0f;
+  ASSERT_EQ(cache.lookup(a[0], a[1], a[2], &value), LayerCache::Lookup::kKnown);
+  EXPECT_EQ(value, 1.7f) << "the cache still holds its own value";
+  cache.forget(a);
+  EXPECT_EQ(cache.lookup(a[0], a[1], a[2], &value), LayerCache::Lookup::kNotCached);
+  ASSERT_TRUE(cache.apply(a, 0.85f));
+  ASSERT_EQ(cache.lookup(a[0], a[1], a[2], &value), LayerCache::Lookup::kKnown);
+  EXPECT_EQ(value, -1.0f + 0.85f) << "the update started from the octree's value";
+  // A forgotten voxel the octree holds nothing of is unknown again, not zero and not a value.
+  const octomap::OcTreeKey d(32770, 32768, 32770);
+  cache.forget(d);
+  ASSERT_TRUE(cache.apply(d, -0.4f));
+  ASSERT_EQ(cache.lookup(d[0], d[1], d[2], &value), LayerCache::Lookup::kKnown);
+  EXPECT_EQ(value, -0.4f);
+  EXPECT_EQ(cache.lookup(d[0] + 1, d[1], d[2], &value), LayerCache::Lookup::kUnknown);
+  cache.flush();
+  EXPECT_EQ(cache.dirtyCount(), 0u);
+  EXPECT_FLOAT_EQ(tree.search(a)->getLogOdds(), -0.15f);
+}
+
 // A pruned leaf spans several layers and columns: a tile of one of its layers takes its value
 // for each voxel it covers, and a tile of the layer just above it takes nothing from it (OctoMap's
 // box iterator hands on such neighbours too).

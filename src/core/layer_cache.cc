@@ -49,14 +49,14 @@ void LayerCache::cover(Layer* l, unsigned kx0, unsigned ky0, unsigned kx1, unsig
   l->tx0 = nx0, l->ty0 = ny0, l->ntx = w, l->nty = h;
 }
 
-// A new tile starts with every voxel of its layer the octree holds loaded, the rest kUnknown.
+// A new tile starts with every voxel of its layer the octree holds loaded, the rest unknown.
 // Where the octree holds none of the 64 x 64 voxels (no node at the depth that spans them;
 // typical while mapping new ground) one search tells. Else one walk over the tile's part of the
 // layer: loaded voxel by voxel on first use instead, a tilted scan's new layers cost a root-to-leaf
 // search per voxel it changed and per layer of every slice column it changed (issue 21).
 std::unique_ptr<LayerCache::Tile> LayerCache::newTile(std::uint16_t z, unsigned kx, unsigned ky) const {
   auto tile = std::make_unique<Tile>();
-  std::fill(std::begin(tile->state), std::end(tile->state), kUnknown);
+  std::fill(std::begin(tile->value), std::end(tile->value), unknownValue());
   const unsigned depth = tree_->getTreeDepth();
   if (!tree_->search(octomap::OcTreeKey(kx, ky, z), depth - kTileBits)) return tile;
   const unsigned x0 = kx & ~kTileMask, y0 = ky & ~kTileMask;
@@ -73,9 +73,7 @@ std::unique_ptr<LayerCache::Tile> LayerCache::newTile(std::uint16_t z, unsigned 
     const float value = it->getLogOdds();
     for (unsigned y = iy0; y <= iy1; ++y) {
       for (unsigned x = ix0; x <= ix1; ++x) {
-        const unsigned index = cellIndex(x, y);
-        tile->value[index] = value;
-        tile->state[index] = kKnown;
+        tile->value[cellIndex(x, y)] = value;
       }
     }
   }
@@ -86,16 +84,16 @@ std::unique_ptr<LayerCache::Tile> LayerCache::newTile(std::uint16_t z, unsigned 
 // hold starts at 0; one already at the bound the update pushes towards is left alone; else the
 // update is added in float and the sum clamped.
 bool LayerCache::applyTo(const Ref& ref, float update) {
-  std::uint8_t& state = *ref.state;
-  if ((state & kLoadMask) == kUnloaded) {
+  float old = *ref.value;
+  if (isUnloaded(old)) {
     const octomap::OcTreeNode* node = tree_->search(ref.key);
-    if (node) *ref.value = node->getLogOdds();
-    state = static_cast<std::uint8_t>((state & ~kLoadMask) | (node ? kKnown : kUnknown));
+    old = node ? node->getLogOdds() : unknownValue();
+    *ref.value = old;
   }
+  const bool known = isKnown(old);
   const float lo = tree_->getClampingThresMinLog(), hi = tree_->getClampingThresMaxLog();
   float value = 0.0f;
-  if ((state & kLoadMask) == kKnown) {
-    const float old = *ref.value;
+  if (known) {
     if ((update >= 0.0f && old >= hi) || (update <= 0.0f && old <= lo)) return false;
     value = old;
   }
@@ -105,10 +103,12 @@ bool LayerCache::applyTo(const Ref& ref, float update) {
   } else if (value > hi) {
     value = hi;
   }
-  if ((state & kLoadMask) == kKnown && value == *ref.value) return false;
+  if (known && value == old) return false;
   *ref.value = value;
-  if (!(state & kDirty)) dirty_.push_back(ref);
-  state = kKnown | kDirty;
+  if (!(*ref.dirty_row & ref.dirtyBit())) {
+    *ref.dirty_row |= ref.dirtyBit();
+    dirty_.push_back(ref);
+  }
   return true;
 }
 
@@ -122,24 +122,19 @@ LayerCache::Lookup LayerCache::lookup(unsigned kx, unsigned ky, unsigned kz, flo
   const Layer* l = findLayer(static_cast<std::uint16_t>(kz));
   const Tile* tile = l ? l->tile(kx, ky) : nullptr;
   if (!tile) return Lookup::kNotCached;
-  const unsigned index = cellIndex(kx, ky);
-  switch (tile->state[index] & kLoadMask) {
-    case kKnown:
-      *value = tile->value[index];
-      return Lookup::kKnown;
-    case kUnknown:
-      return Lookup::kUnknown;
-    default:
-      return Lookup::kNotCached;
+  const float cached = tile->value[cellIndex(kx, ky)];
+  if (isKnown(cached)) {
+    *value = cached;
+    return Lookup::kKnown;
   }
+  return isUnloaded(cached) ? Lookup::kNotCached : Lookup::kUnknown;
 }
 
 void LayerCache::forget(const octomap::OcTreeKey& key) {
   const Layer* l = findLayer(key[2]);
   Tile* tile = l ? l->tile(key[0], key[1]) : nullptr;
   if (!tile) return;
-  std::uint8_t& state = tile->state[cellIndex(key[0], key[1])];
-  state = static_cast<std::uint8_t>(state & ~kLoadMask);  // kUnloaded
+  tile->value[cellIndex(key[0], key[1])] = unloadedValue();
 }
 
 void LayerCache::writeBack(std::size_t begin, std::size_t end) {
@@ -148,7 +143,7 @@ void LayerCache::writeBack(std::size_t begin, std::size_t end) {
   for (std::size_t i = begin; i < end; ++i) {
     const Ref& ref = dirty_[i];
     flush_buffer_.push_back({ref.key, *ref.value});
-    *ref.state = static_cast<std::uint8_t>(*ref.state & ~kDirty);
+    *ref.dirty_row &= ~ref.dirtyBit();
   }
   setValuesInTreeOrder(tree_, &flush_buffer_);
 }

@@ -111,10 +111,10 @@ std::int8_t SliceGrid::columnValue(std::uint16_t kx, std::uint16_t ky) const {
     if (!layer_may_be_known_[kz - band_lo_]) continue;
     const LayerCache::Layer* layer = band_layers_[kz - band_lo_];
     const LayerCache::Tile* tile = layer ? layer->tile(kx, ky) : nullptr;
-    const std::uint8_t state = tile ? tile->state[cell] & LayerCache::kLoadMask : LayerCache::kUnloaded;
-    if (state == LayerCache::kKnown) {
-      take(tile->value[cell]);
-    } else if (state == LayerCache::kUnloaded) {  // the tree is current for it (a pruned leaf may hold the whole band)
+    const float cached = tile ? tile->value[cell] : LayerCache::unloadedValue();
+    if (LayerCache::isKnown(cached)) {
+      take(cached);
+    } else if (LayerCache::isUnloaded(cached)) {  // the tree is current for it (a pruned leaf may hold the whole band)
       if (!searched) {
         top = tree_.search(octomap::OcTreeKey(kx, ky, band_lo_), band_common_depth_);
         searched = true;
