@@ -6,7 +6,12 @@
 // 0.26 m up, yawed 0.02 rad. The lidar is RPLIDAR-like: 720 beams over 360 deg, 12 m, REP 117
 // (+inf for no return). Prints medians over repetitions (ms per scan) and their ratio.
 //
-//   bench_tilted_scans [--repeats N] [--resolution M] [--slice-report DIR] [--tilted-only | --level-only]
+//   bench_tilted_scans [--repeats N] [--resolution M] [--cold-mb MB] [--slice-report DIR] [--tilted-only | --level-only]
+//
+// --cold-mb MB: between two scans (not timed), MB of other memory is written and read, as the
+// other threads and processes of a live node do between a lidar's scans (the background pass,
+// the bag player, roscore): each scan then starts with cold caches, as in the node (issue 21).
+// Without it, scans follow each other at once and find their data still cached.
 //
 // --slice-report DIR: what the tilt does to the slice instead of timing: the level session's
 // slice against the tilted one's, with the default band (0.16-0.36 m) and wider ones, as counts
@@ -62,25 +67,40 @@ std::vector<osm::Scan> throughRealTf(std::vector<osm::Scan> scans, const osm::si
   return scans;
 }
 
+// Writes and reads all of `memory` (a stride of one cache line): what other work between two
+// scans does to the caches.
+std::uint64_t evictCaches(std::vector<std::uint64_t>* memory) {
+  std::uint64_t sum = 0;
+  for (std::size_t i = 0; i < memory->size(); i += 8) sum += ++(*memory)[i];
+  return sum;
+}
+
 // ms per scan; also the scans inserted, the voxel updates per scan and the voxels per scan whose
 // value changed (those cost a dirty entry, a flush and a slice column).
-double msPerScan(const std::vector<osm::Scan>& scans, double resolution, std::size_t* inserted, double* updates_per_scan,
-                 double* changed_per_scan) {
+double msPerScan(const std::vector<osm::Scan>& scans, double resolution, double cold_mb, std::size_t* inserted,
+                 double* updates_per_scan, double* changed_per_scan) {
   osm::MapperOptions options;
   options.resolution = resolution;
   options.keep_scans = false;
   osm::Mapper mapper(options);
-  const auto t0 = Clock::now();
+  std::vector<std::uint64_t> other(std::size_t(cold_mb * (1 << 20)) / sizeof(std::uint64_t));
+  volatile std::uint64_t sink = 0;
+  Clock::duration spent{};
   *inserted = 0;
   std::size_t changed = 0;
   for (const osm::Scan& s : scans) {
+    if (!other.empty()) sink = sink + evictCaches(&other);
+    const auto t0 = Clock::now();
     const osm::InsertResult r = mapper.insert(s);
+    spent += Clock::now() - t0;
     *inserted += r.ok();
     changed += r.updated_keys.size();
   }
   *changed_per_scan = double(changed) / scans.size();
+  const auto t0 = Clock::now();
   mapper.tree();  // what a reader of the octree would wait for
-  const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count() / scans.size();
+  spent += Clock::now() - t0;
+  const double ms = std::chrono::duration<double, std::milli>(spent).count() / scans.size();
   *updates_per_scan = double(mapper.stats().voxel_updates) / scans.size();
   return ms;
 }
@@ -145,18 +165,22 @@ int sliceReport(const std::vector<osm::Scan>& level, const std::vector<osm::Scan
 
 int main(int argc, char** argv) {
   int repeats = 5;
-  double resolution = 0.05;
+  double resolution = 0.05, cold_mb = 0.0;
   bool tilted_only = false, level_only = false;  // for profiling one path alone
   std::string slice_dir;
   for (int i = 1; i < argc; ++i) {
-    if (std::string(argv[i]) == "--tilted-only") tilted_only = true;
-    if (std::string(argv[i]) == "--level-only") level_only = true;
-    if (std::string(argv[i]) == "--slice-report" && i + 1 < argc) slice_dir = argv[i + 1];
-  }
-  for (int i = 1; i + 1 < argc; i += 2) {
     const std::string arg = argv[i];
-    if (arg == "--repeats") repeats = std::max(1, std::stoi(argv[i + 1]));
-    else if (arg == "--resolution") resolution = std::stod(argv[i + 1]);
+    const bool has_value = i + 1 < argc;
+    if (arg == "--tilted-only") tilted_only = true;
+    else if (arg == "--level-only") level_only = true;
+    else if (arg == "--slice-report" && has_value) slice_dir = argv[++i];
+    else if (arg == "--repeats" && has_value) repeats = std::max(1, std::stoi(argv[++i]));
+    else if (arg == "--resolution" && has_value) resolution = std::stod(argv[++i]);
+    else if (arg == "--cold-mb" && has_value) cold_mb = std::max(0.0, std::stod(argv[++i]));
+    else {
+      std::fprintf(stderr, "bench_tilted_scans: unknown or incomplete argument '%s'\n", arg.c_str());
+      return 2;
+    }
   }
   osm::sim::SessionSpec spec = osm::sim::SessionSpec::officeTour();
   spec.lidar.beams = 720;
@@ -172,13 +196,14 @@ int main(int argc, char** argv) {
   std::size_t level_ok = 0, tilted_ok = 0;
   double level_updates = 0.0, tilted_updates = 0.0, level_changed = 0.0, tilted_changed = 0.0;
   for (int r = 0; r < repeats; ++r) {
-    level_ms.push_back(tilted_only ? 1.0 : msPerScan(level, resolution, &level_ok, &level_updates, &level_changed));
-    tilted_ms.push_back(level_only ? 1.0 : msPerScan(tilted, resolution, &tilted_ok, &tilted_updates, &tilted_changed));
+    level_ms.push_back(tilted_only ? 1.0 : msPerScan(level, resolution, cold_mb, &level_ok, &level_updates, &level_changed));
+    tilted_ms.push_back(level_only ? 1.0 : msPerScan(tilted, resolution, cold_mb, &tilted_ok, &tilted_updates, &tilted_changed));
     std::fprintf(stderr, "\rrepetition %d/%d", r + 1, repeats);
   }
   std::fprintf(stderr, "\n");
   const double a = osm::bench::median(level_ms), b = osm::bench::median(tilted_ms);
-  std::printf("%zu scans of 720 beams (REP 117, 12 m), %.2f m, median of %d\n", level.size(), resolution, repeats);
+  std::printf("%zu scans of 720 beams (REP 117, 12 m), %.2f m, median of %d%s\n", level.size(), resolution, repeats,
+              cold_mb > 0.0 ? (", caches made cold between scans (" + std::to_string(int(cold_mb)) + " MB)").c_str() : "");
   std::printf("level scans:                    %.3f ms/scan (%zu inserted, %.0f voxel updates per scan, %.0f changed)\n", a,
               level_ok, level_updates, level_changed);
   std::printf("through a real robot's tf (~1 deg pitch/roll): %.3f ms/scan (%zu inserted, %.0f voxel updates per scan, "
