@@ -6,12 +6,16 @@
 // 0.26 m up, yawed 0.02 rad. The lidar is RPLIDAR-like: 720 beams over 360 deg, 12 m, REP 117
 // (+inf for no return). Prints medians over repetitions (ms per scan) and their ratio.
 //
-//   bench_tilted_scans [--repeats N] [--resolution M] [--cold-mb MB] [--slice-report DIR] [--tilted-only | --level-only]
+//   bench_tilted_scans [--repeats N] [--resolution M] [--cold-mb MB] [--pause-ms MS] [--slice-report DIR]
+//                      [--tilted-only | --level-only]
 //
 // --cold-mb MB: between two scans (not timed), MB of other memory is written and read, as the
 // other threads and processes of a live node do between a lidar's scans (the background pass,
 // the bag player, roscore): each scan then starts with cold caches, as in the node (issue 21).
-// Without it, scans follow each other at once and find their data still cached.
+// --pause-ms MS: the thread sleeps MS between two scans (not timed), as the node's scan thread
+// waits for the next scan: on this 2-core virtual machine a core left idle for a few
+// milliseconds comes back slower for the next scan (its caches taken by other work).
+// Without either, scans follow each other at once and find their data still cached.
 //
 // --slice-report DIR: what the tilt does to the slice instead of timing: the level session's
 // slice against the tilted one's, with the default band (0.16-0.36 m) and wider ones, as counts
@@ -23,6 +27,7 @@
 #include <limits>
 #include <random>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "bench_common.h"
@@ -77,8 +82,8 @@ std::uint64_t evictCaches(std::vector<std::uint64_t>* memory) {
 
 // ms per scan; also the scans inserted, the voxel updates per scan and the voxels per scan whose
 // value changed (those cost a dirty entry, a flush and a slice column).
-double msPerScan(const std::vector<osm::Scan>& scans, double resolution, double cold_mb, std::size_t* inserted,
-                 double* updates_per_scan, double* changed_per_scan) {
+double msPerScan(const std::vector<osm::Scan>& scans, double resolution, double cold_mb, double pause_ms,
+                 std::size_t* inserted, double* updates_per_scan, double* changed_per_scan) {
   osm::MapperOptions options;
   options.resolution = resolution;
   options.keep_scans = false;
@@ -90,6 +95,7 @@ double msPerScan(const std::vector<osm::Scan>& scans, double resolution, double 
   std::size_t changed = 0;
   for (const osm::Scan& s : scans) {
     if (!other.empty()) sink = sink + evictCaches(&other);
+    if (pause_ms > 0.0) std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(pause_ms));
     const auto t0 = Clock::now();
     const osm::InsertResult r = mapper.insert(s);
     spent += Clock::now() - t0;
@@ -165,7 +171,7 @@ int sliceReport(const std::vector<osm::Scan>& level, const std::vector<osm::Scan
 
 int main(int argc, char** argv) {
   int repeats = 5;
-  double resolution = 0.05, cold_mb = 0.0;
+  double resolution = 0.05, cold_mb = 0.0, pause_ms = 0.0;
   bool tilted_only = false, level_only = false;  // for profiling one path alone
   std::string slice_dir;
   for (int i = 1; i < argc; ++i) {
@@ -177,6 +183,7 @@ int main(int argc, char** argv) {
     else if (arg == "--repeats" && has_value) repeats = std::max(1, std::stoi(argv[++i]));
     else if (arg == "--resolution" && has_value) resolution = std::stod(argv[++i]);
     else if (arg == "--cold-mb" && has_value) cold_mb = std::max(0.0, std::stod(argv[++i]));
+    else if (arg == "--pause-ms" && has_value) pause_ms = std::max(0.0, std::stod(argv[++i]));
     else {
       std::fprintf(stderr, "bench_tilted_scans: unknown or incomplete argument '%s'\n", arg.c_str());
       return 2;
@@ -196,14 +203,17 @@ int main(int argc, char** argv) {
   std::size_t level_ok = 0, tilted_ok = 0;
   double level_updates = 0.0, tilted_updates = 0.0, level_changed = 0.0, tilted_changed = 0.0;
   for (int r = 0; r < repeats; ++r) {
-    level_ms.push_back(tilted_only ? 1.0 : msPerScan(level, resolution, cold_mb, &level_ok, &level_updates, &level_changed));
-    tilted_ms.push_back(level_only ? 1.0 : msPerScan(tilted, resolution, cold_mb, &tilted_ok, &tilted_updates, &tilted_changed));
+    level_ms.push_back(tilted_only ? 1.0 : msPerScan(level, resolution, cold_mb, pause_ms, &level_ok, &level_updates, &level_changed));
+    tilted_ms.push_back(level_only ? 1.0 : msPerScan(tilted, resolution, cold_mb, pause_ms, &tilted_ok, &tilted_updates, &tilted_changed));
     std::fprintf(stderr, "\rrepetition %d/%d", r + 1, repeats);
   }
   std::fprintf(stderr, "\n");
   const double a = osm::bench::median(level_ms), b = osm::bench::median(tilted_ms);
+  std::string between;
+  if (cold_mb > 0.0) between += ", caches made cold between scans (" + std::to_string(int(cold_mb)) + " MB)";
+  if (pause_ms > 0.0) between += ", a pause of " + std::to_string(pause_ms).substr(0, 5) + " ms between scans";
   std::printf("%zu scans of 720 beams (REP 117, 12 m), %.2f m, median of %d%s\n", level.size(), resolution, repeats,
-              cold_mb > 0.0 ? (", caches made cold between scans (" + std::to_string(int(cold_mb)) + " MB)").c_str() : "");
+              between.c_str());
   std::printf("level scans:                    %.3f ms/scan (%zu inserted, %.0f voxel updates per scan, %.0f changed)\n", a,
               level_ok, level_updates, level_changed);
   std::printf("through a real robot's tf (~1 deg pitch/roll): %.3f ms/scan (%zu inserted, %.0f voxel updates per scan, "

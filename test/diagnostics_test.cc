@@ -38,6 +38,7 @@ TEST(SessionSummary, CountsAsDiagnosticsDoes) {
   c.scans_inserted = 50;  // 40 before a reset, 10 after
   c.skipped["zero_stamp"] = 2;
   c.scan_insert_seconds = 0.025;
+  c.scan_insert_cpu_seconds = 0.02;
   MapFigures map;
   map.readings = "hit=900 no_return=100";
   map.beams_outside_octree = 2;
@@ -49,7 +50,7 @@ TEST(SessionSummary, CountsAsDiagnosticsDoes) {
   EXPECT_NE(line.find("scans_skipped=" + valueOf(diagnostics, "scans_skipped") + " "), std::string::npos) << line;
   EXPECT_NE(line.find("skipped_zero_stamp=" + valueOf(diagnostics, "skipped_zero_stamp")), std::string::npos) << line;
   EXPECT_NE(line.find("readings: hit=900 no_return=100 beams_outside_octree=2 voxels=1234 known_cells=567"), std::string::npos) << line;
-  EXPECT_NE(line.find("insert_ms_per_scan=0.5"), std::string::npos) << line;
+  EXPECT_NE(line.find("insert_ms_per_scan=0.5 insert_cpu_ms_per_scan=0.4 "), std::string::npos) << line;
   EXPECT_EQ(line.find("cloud_points"), std::string::npos) << "no clouds, no cloud figures";
   EXPECT_EQ(diagnostics.status.at(0).level, diagnostic_msgs::DiagnosticStatus::WARN) << "skips since the last report";
 }

@@ -31,7 +31,11 @@ std::string sessionSummary(const NodeCounters& c, const MapFigures& map, double 
   if (!map.cloud_points.empty()) out << " cloud_points: " << map.cloud_points;
   out << " voxels=" << map.voxels << " known_cells=" << map.known_cells;
   out << " insert_ms_per_scan=" << (c.scans_inserted ? 1000.0 * c.scan_insert_seconds / c.scans_inserted : 0.0);
-  if (c.clouds_inserted) out << " insert_ms_per_cloud=" << 1000.0 * c.cloud_insert_seconds / c.clouds_inserted;
+  out << " insert_cpu_ms_per_scan=" << (c.scans_inserted ? 1000.0 * c.scan_insert_cpu_seconds / c.scans_inserted : 0.0);
+  if (c.clouds_inserted) {
+    out << " insert_ms_per_cloud=" << 1000.0 * c.cloud_insert_seconds / c.clouds_inserted;
+    out << " insert_cpu_ms_per_cloud=" << 1000.0 * c.cloud_insert_cpu_seconds / c.clouds_inserted;
+  }
   out << " wall_s=" << wall_seconds;
   return out.str();
 }

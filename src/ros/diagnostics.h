@@ -25,6 +25,8 @@ struct NodeCounters {
   std::uint64_t scans_taken_over = 0;
   double last_insert_ms = 0.0;
   double scan_insert_seconds = 0.0, cloud_insert_seconds = 0.0;  // summed over the inserted ones
+  // The same as CPU time of the inserting thread: less than the above when it waited for a core.
+  double scan_insert_cpu_seconds = 0.0, cloud_insert_cpu_seconds = 0.0;
   // Longest a scan waited for the map (held by a service taking its snapshot), and longest a
   // service held it: both must stay under one scan period for saving not to stall mapping.
   double max_insert_wait_ms = 0.0;
