@@ -355,12 +355,12 @@ TEST(LayerCache, MapperBoundsTheBacklogAfterScansAndClouds) {
     const std::size_t before = bounded.flushedTree().size();
     ASSERT_TRUE(bounded.insert(scan).ok());
     ASSERT_TRUE(unbounded.insert(scan).ok());
-    most = std::max(most, bounded.inserter().cache().dirtyCount());
+    most = std::max(most, bounded.unflushedVoxels());
     flushed_some += bounded.flushedTree().size() != before;
   }
   EXPECT_LE(most, 3000u);
   EXPECT_GT(flushed_some, 5u) << "the bound should have been reached";
-  EXPECT_GT(unbounded.inserter().cache().dirtyCount(), 3000u) << "the session should exceed the bound";
+  EXPECT_GT(unbounded.unflushedVoxels(), 3000u) << "the session should exceed the bound";
   // A camera's clouds alone: a wall of points 2 m ahead, moved a little each frame.
   const Eigen::Vector3d camera(0.1, 0.0, 0.3);
   for (int frame = 0; frame < 40; ++frame) {
@@ -372,9 +372,10 @@ TEST(LayerCache, MapperBoundsTheBacklogAfterScansAndClouds) {
     }
     ASSERT_TRUE(bounded.insertPoints(camera, points).ok());
     ASSERT_TRUE(unbounded.insertPoints(camera, points).ok());
-    EXPECT_LE(bounded.inserter().cache().dirtyCount(), 3000u) << "frame " << frame;
+    EXPECT_LE(bounded.unflushedVoxels(), 3000u) << "frame " << frame;
   }
   expectSameTree(bounded.tree(), unbounded.tree());
+  EXPECT_EQ(unbounded.unflushedVoxels(), 0u) << "tree() writes everything";
 }
 
 // A snapshot lends the octree: another thread reads it (here: saves it) while scans keep coming;

@@ -137,8 +137,9 @@ class Mapper {
   // The octree, brought up to date with the insertion cache first: a write to the octree, so not
   // const (a lent octree is current as lent and is not touched).
   const octomap::OcTree& tree();
-  // The octree as of the last flush (cheap; lags behind the cache).
+  // The octree as of the last flush (cheap; lags behind the cache by unflushedVoxels()).
   const octomap::OcTree& flushedTree() const { return *tree_; }
+  std::size_t unflushedVoxels() const { return inserter_->cache().dirtyCount(); }
   const SliceGrid& slice() const { return *slice_; }
   const MapperStats& stats() const { return stats_; }
   const MapperOptions& options() const { return options_; }

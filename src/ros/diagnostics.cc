@@ -69,6 +69,7 @@ diagnostic_msgs::DiagnosticArray toDiagnostics(const NodeCounters& c, std::uint6
   std::snprintf(ms, sizeof(ms), "%.3f", c.longest_service_lock_ms);
   add("longest_service_lock_ms", ms);
   add("octree_nodes", std::to_string(c.octree_nodes));
+  add("unflushed_voxels", std::to_string(c.unflushed_voxels));
   add("known_cells", std::to_string(c.known_cells));
   add("kept_scans", std::to_string(c.kept_scans));
   add("revisit_scans_not_kept", std::to_string(c.revisit_scans_not_kept));

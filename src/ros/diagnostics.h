@@ -31,8 +31,9 @@ struct NodeCounters {
   // service held it: both must stay under one scan period for saving not to stall mapping.
   double max_insert_wait_ms = 0.0;
   double longest_service_lock_ms = 0.0;
-  // Octree nodes, inner ones included, as of the last flush (the session summary counts leaves).
-  std::size_t octree_nodes = 0;
+  // Octree nodes, inner ones included, as of the last flush (the session summary counts leaves),
+  // and the changed voxels the insertion cache holds that the octree does not have yet.
+  std::size_t octree_nodes = 0, unflushed_voxels = 0;
   std::size_t known_cells = 0, kept_scans = 0, revisit_scans_not_kept = 0;
   std::size_t waiting_for_tf = 0;  // in the tf filter's queue, within their timeout
   // The background global pass (~online_optimize): passes published, the last one's seconds, and

@@ -317,6 +317,7 @@ void MapperNode::publishDiagnostics(const ros::WallTimerEvent&) {
     // Kept by the octree, read without a walk: counting the leaves walked the whole tree under the
     // map's lock, 1-3 ms (up to 8) on a Freiburg 079-sized map, while scans waited. No flush either.
     c.octree_nodes = mapper.flushedTree().size();
+    c.unflushed_voxels = mapper.unflushedVoxels();
     c.known_cells = mapper.slice().knownCells();
     c.kept_scans = mapper.scanStore().scans().size();
     c.revisit_scans_not_kept = mapper.scanStore().skippedAsRevisit();
