@@ -52,6 +52,42 @@ TEST(ScanInserter, OneBeamIntoAnEmptyOctree) {
   EXPECT_GE(tree.keyToCoord(result.touched.max[0]), hit_x);
 }
 
+// The box a scan reports bounds the voxels it changed, the ones the slice and the published
+// update must follow; voxels updated without a change (at their clamping bound) are left out.
+TEST(ScanInserter, TouchedBoundsTheChangedVoxels) {
+  for (const double pitch : {0.0, 1.0 * M_PI / 180.0}) {  // the level path and the layered one
+    octomap::OcTree tree(0.05);
+    useMapperThresholds(MapperOptions{}, &tree);
+    ScanInserter inserter(&tree, InsertOptions{});
+    std::vector<float> ranges(61, 3.0f);
+    ranges[30] = 1.5f;  // something nearer in the middle
+    const Scan scan = makeScan(laserPoseOnRobot(0, 0, 0, pitch), -0.5f, 1.0f / 60.0f, ranges);
+    InsertResult result = inserter.insert(scan);
+    ASSERT_TRUE(result.ok());
+    ASSERT_FALSE(result.updated_keys.empty());
+    KeyBox changed;
+    for (const octomap::OcTreeKey& k : result.updated_keys) changed.add(k);
+    EXPECT_EQ(result.touched.min, changed.min) << "pitch " << pitch;
+    EXPECT_EQ(result.touched.max, changed.max) << "pitch " << pitch;
+    // The same scan again and again: most of its voxels reach their bounds and stop changing (a
+    // few with nearly balanced evidence keep creeping); the box shrinks to those still changing.
+    for (int i = 0; i < 40; ++i) result = inserter.insert(scan);
+    KeyBox updated;  // every voxel the scan gives evidence to
+    ScanInserterInspection(inserter).traceEvidence(scan, [&updated](const octomap::OcTreeKey& k, float value) {
+      if (value != 0.0f) updated.add(k);
+    });
+    KeyBox still_changing;
+    for (const octomap::OcTreeKey& k : result.updated_keys) still_changing.add(k);
+    EXPECT_LT(result.updated_keys.size() * 4, result.voxels_updated) << "pitch " << pitch;
+    EXPECT_EQ(result.touched.min, still_changing.min) << "pitch " << pitch;
+    EXPECT_EQ(result.touched.max, still_changing.max) << "pitch " << pitch;
+    const auto area = [](const KeyBox& b) {
+      return b.empty() ? 0 : (b.max[0] - b.min[0] + 1) * (b.max[1] - b.min[1] + 1);
+    };
+    EXPECT_LT(area(result.touched), area(updated)) << "pitch " << pitch << ": the box of every update, not of the changes";
+  }
+}
+
 TEST(ScanInserter, TiltedRobotTiltsTheRays) {
   octomap::OcTree tree(0.05);
   ScanInserter inserter(&tree, InsertOptions{});

@@ -53,9 +53,11 @@ struct InsertResult {
   // Beams whose end lies beyond what the octree holds (a reading of 3e38 m, a cloud point at
   // 1e30): dropped whole, nothing traced (their reading is still counted by its kind).
   std::uint64_t beams_outside_octree = 0;
-  KeyBox touched;                  // bounding box of the keys the scan updated (changed or not)
-  std::vector<octomap::OcTreeKey> updated_keys;  // the keys whose log-odds changed (some of the
-                                                 // general path's may not have)
+  // The keys whose log-odds changed (some of the general path's may not have), and their bounding
+  // box: what the slice and the published map update must follow. A voxel updated without a
+  // change (at its clamping bound) was known before, so its column is in the slice already.
+  std::vector<octomap::OcTreeKey> updated_keys;
+  KeyBox touched;
   std::string error;               // non-empty: the whole scan was rejected, map untouched
   bool ok() const { return error.empty(); }
 };
