@@ -14,7 +14,7 @@
 // the bag player, roscore): each scan then starts with cold caches, as in the node (issue 21).
 // --pause-ms MS: the thread sleeps MS between two scans (not timed), as the node's scan thread
 // waits for the next scan: on this 2-core virtual machine a core left idle for a few
-// milliseconds comes back slower for the next scan (its caches taken by other work).
+// milliseconds comes back slower for the next scan (likely its caches taken by other work).
 // Without either, scans follow each other at once and find their data still cached.
 //
 // --slice-report DIR: what the tilt does to the slice instead of timing: the level session's
