@@ -94,7 +94,13 @@ class SliceGrid {
   unsigned band_common_depth_;
   std::uint16_t origin_key_x_ = 0, origin_key_y_ = 0;
   int width_ = 0, height_ = 0;
-  std::vector<const LayerCache::Layer*> band_layers_;  // per band layer: its cached layer, or null
+  // The band layers that may hold known voxels, each with its cached layer or null (the tree
+  // then holds it): found once per batch of columns, so that a column's read skips the others.
+  struct BandLayer {
+    unsigned kz;
+    const LayerCache::Layer* cached;
+  };
+  std::vector<BandLayer> band_layers_;
   std::vector<std::uint32_t> columns_;  // updateColumns' scratch: the columns to recompute
   std::vector<std::int8_t> data_;
   std::uint64_t geometry_ = 0;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 namespace octo_slice_mapper {
@@ -86,9 +87,11 @@ const octomap::OcTreeNode* SliceGrid::bandVoxel(const octomap::OcTreeNode* top, 
 }
 
 void SliceGrid::findBandLayers() {
-  band_layers_.assign(band_hi_ - band_lo_ + 1, nullptr);
-  if (!cache_) return;
-  for (unsigned kz = band_lo_; kz <= band_hi_; ++kz) band_layers_[kz - band_lo_] = cache_->findLayer(std::uint16_t(kz));
+  band_layers_.clear();
+  for (unsigned kz = band_lo_; kz <= band_hi_; ++kz) {
+    if (!layer_may_be_known_[kz - band_lo_]) continue;
+    band_layers_.push_back({kz, cache_ ? cache_->findLayer(std::uint16_t(kz)) : nullptr});
+  }
 }
 
 // One descent to the deepest node holding the whole band of this column, then a few levels down
@@ -100,17 +103,17 @@ std::int8_t SliceGrid::columnValue(std::uint16_t kx, std::uint16_t ky) const {
   const octomap::OcTreeNode* top = nullptr;
   bool searched = false;  // the descent to `top` only when a layer needs the tree
   bool known = false;
-  float most = 0.0f, least = 0.0f;  // log-odds of the most and the least occupied known voxel
+  // Log-odds of the most and the least occupied known voxel.
+  float most = -std::numeric_limits<float>::infinity(), least = std::numeric_limits<float>::infinity();
   const auto take = [&](float log_odds) {
-    most = known ? std::max(most, log_odds) : log_odds;
-    least = known ? std::min(least, log_odds) : log_odds;
+    most = std::max(most, log_odds);
+    least = std::min(least, log_odds);
     known = true;
   };
   const unsigned cell = LayerCache::cellIndex(kx, ky);
-  for (unsigned kz = band_lo_; kz <= band_hi_; ++kz) {
-    if (!layer_may_be_known_[kz - band_lo_]) continue;
-    const LayerCache::Layer* layer = band_layers_[kz - band_lo_];
-    const LayerCache::Tile* tile = layer ? layer->tile(kx, ky) : nullptr;
+  for (const BandLayer& band_layer : band_layers_) {
+    const unsigned kz = band_layer.kz;
+    const LayerCache::Tile* tile = band_layer.cached ? band_layer.cached->tile(kx, ky) : nullptr;
     const float cached = tile ? tile->value[cell] : LayerCache::unloadedValue();
     if (LayerCache::isKnown(cached)) {
       take(cached);
