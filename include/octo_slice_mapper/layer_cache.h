@@ -37,7 +37,8 @@ class LayerCache {
   static bool isKnown(float value) { return value == value; }
   static bool isUnloaded(float value) { return bitsOf(value) == kUnloadedBits; }
   struct Tile {
-    Tile() { std::fill(std::begin(value), std::end(value), unloadedValue()); }
+    // Every voxel starts as `initial` (no default: zero would be a known log-odds).
+    explicit Tile(float initial) { std::fill(std::begin(value), std::end(value), initial); }
     float value[kTileSize * kTileSize];
     // Bit (kx & kTileMask) of row (ky & kTileMask): the octree lags behind the cached value.
     std::uint64_t dirty[kTileSize] = {};

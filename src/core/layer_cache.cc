@@ -55,8 +55,7 @@ void LayerCache::cover(Layer* l, unsigned kx0, unsigned ky0, unsigned kx1, unsig
 // layer: loaded voxel by voxel on first use instead, a tilted scan's new layers cost a root-to-leaf
 // search per voxel it changed and per layer of every slice column it changed (issue 21).
 std::unique_ptr<LayerCache::Tile> LayerCache::newTile(std::uint16_t z, unsigned kx, unsigned ky) const {
-  auto tile = std::make_unique<Tile>();
-  std::fill(std::begin(tile->value), std::end(tile->value), unknownValue());
+  auto tile = std::make_unique<Tile>(unknownValue());
   const unsigned depth = tree_->getTreeDepth();
   if (!tree_->search(octomap::OcTreeKey(kx, ky, z), depth - kTileBits)) return tile;
   const unsigned x0 = kx & ~kTileMask, y0 = ky & ~kTileMask;
