@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 namespace octo_slice_mapper {
 
@@ -35,6 +36,12 @@ struct KeyBox {
     if (other.empty()) return;
     add(other.min);
     add(other.max);
+  }
+  // The box of `keys` (empty for none).
+  static KeyBox of(const std::vector<octomap::OcTreeKey>& keys) {
+    KeyBox box;
+    for (const octomap::OcTreeKey& k : keys) box.add(k);
+    return box;
   }
 };
 

@@ -366,12 +366,8 @@ void Mapper::applyOptimized(const GridImage& grid, const PassBand& band) {
   if (lent_) throw std::logic_error("mapper: applyOptimized while the octree is lent");
   inserter_->flush();
   const std::vector<octomap::OcTreeKey> keys = writeGridIntoBand(grid, band, tree_.get());
-  KeyBox box;
-  for (const octomap::OcTreeKey& k : keys) {
-    inserter_->cache().forget(k);  // it holds the values from before
-    box.add(k);
-  }
-  slice_->updateColumns(keys, box);
+  for (const octomap::OcTreeKey& k : keys) inserter_->cache().forget(k);  // it holds the values from before
+  slice_->updateColumns(keys, KeyBox::of(keys));
 }
 
 }  // namespace octo_slice_mapper

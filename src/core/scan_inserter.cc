@@ -640,7 +640,7 @@ InsertResult ScanInserter::insertIntoLayers(const Eigen::Vector3d& origin, const
   result.voxels_updated = updates;
   // The box of the changed keys only: most updates change nothing (free space seen again), and
   // bounding all of them cost 2-5 % of a scan's instructions.
-  for (const octomap::OcTreeKey& key : result.updated_keys) result.touched.add(key);
+  result.touched = KeyBox::of(result.updated_keys);
   return result;
 }
 
@@ -657,8 +657,8 @@ InsertResult ScanInserter::apply(std::vector<KeyUpdate> updates, InsertResult re
       direct.push_back(u);
     }
     result.updated_keys.push_back(u.key);
-    result.touched.add(u.key);
   }
+  result.touched = KeyBox::of(result.updated_keys);
   applyUpdatesInTreeOrder(tree_, &direct);
   return result;
 }
