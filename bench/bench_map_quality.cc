@@ -9,15 +9,17 @@
 // shared/tools/map_judge). With --out DIR the maps are also written as DIR/<data>_<map>.{pgm,yaml},
 // so that the shared judge can check the figures. After the two logs, the simulator's office tour
 // (made in-process: data no setting was chosen on), as simulated ("sim_office": its walls on cell
-// boundaries) and moved by half a cell ("sim_office_half_cell"). --bag FILE judges a bag's scans
-// instead (topic "scan", placed with the bag's tf in frame "odom"), such as the real-robot tour
-// simulate_session --real-robot writes.
+// boundaries), moved by half a cell ("sim_office_half_cell"), and that with its poses 2 cm and
+// 0.5 deg off (sigma; "sim_office_pose_errors": as a corrected log's; --pose-errors sets them).
+// --bag FILE judges a bag's scans instead (topic "scan", placed with the bag's tf in frame
+// "odom"), such as the real-robot tour simulate_session --real-robot writes.
 //
-//   bench_map_quality [--data DIR] [--only intel|fr079|sim_office|sim_office_half_cell] [--bag FILE]
-//                     [--out DIR] [--every N] [--incremental-only]
+//   bench_map_quality [--data DIR] [--only intel|fr079|sim_office|sim_office_half_cell|sim_office_pose_errors]
+//                     [--bag FILE] [--out DIR] [--every N] [--incremental-only] [--pose-errors METRES:DEGREES]
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -48,15 +50,28 @@ bool readBag(const std::string& path, std::vector<osm::Scan>* scans) {
   return true;
 }
 
-// A CARMEN log's scans, or a bag's (by the name's ending), or for "sim:office:D" the simulator's
-// tour moved by D metres in x and y (its walls lie on round coordinates, so on cell boundaries:
-// moved, they lie inside cells as a real building's mostly do).
+// A CARMEN log's scans, or a bag's (by the name's ending), or for "sim:office:D[:S:A]" the
+// simulator's tour moved by D metres in x and y (its walls lie on round coordinates, so on cell
+// boundaries: moved, they lie inside cells as a real building's mostly do), each scan's recorded
+// pose then off its true one by Gaussian errors of S metres in x and y and A degrees in heading
+// (as a corrected log's poses are: its scans were taken where the poses do not quite say).
 bool readScans(const std::string& path, std::vector<osm::Scan>* scans) {
   const std::string sim = "sim:office:";
   if (path.compare(0, sim.size(), sim) == 0) {
-    const double shift = std::atof(path.c_str() + sim.size());
+    double shift = 0.0, sigma_xy = 0.0, sigma_deg = 0.0;
+    std::sscanf(path.c_str() + sim.size(), "%lf:%lf:%lf", &shift, &sigma_xy, &sigma_deg);
     *scans = osm::sim::SimulatedSession(osm::sim::FloorPlan::office(), osm::sim::SessionSpec::officeTour()).allScans();
-    for (osm::Scan& scan : *scans) scan.sensor_pose.translation() += Eigen::Vector3d(shift, shift, 0.0);
+    std::mt19937 rng(11);
+    std::normal_distribution<double> unit(0.0, 1.0);
+    for (osm::Scan& scan : *scans) {
+      scan.sensor_pose.translation() += Eigen::Vector3d(shift, shift, 0.0);
+      if (sigma_xy > 0.0 || sigma_deg > 0.0) {
+        const double dx = sigma_xy * unit(rng), dy = sigma_xy * unit(rng), da = sigma_deg * M_PI / 180.0 * unit(rng);
+        const Eigen::Vector3d at = scan.sensor_pose.translation();
+        scan.sensor_pose.prerotate(Eigen::AngleAxisd(da, Eigen::Vector3d::UnitZ()));
+        scan.sensor_pose.translation() = at + Eigen::Vector3d(dx, dy, 0.0);
+      }
+    }
     return true;
   }
   if (path.size() > 4 && path.compare(path.size() - 4, 4, ".bag") == 0) return readBag(path, scans);
@@ -88,7 +103,7 @@ void report(const std::string& data, const Row& r) {
 
 int main(int argc, char** argv) {
   std::string data_dir = std::getenv("OSM_DATA_DIR") ? std::getenv("OSM_DATA_DIR") : "../shared/data";
-  std::string only, out_dir, bag;
+  std::string only, out_dir, bag, pose_errors = "0.02:0.5";
   bool incremental_only = false;
   osm::HoldOut hold{10, 5};
   for (int i = 1; i < argc; ++i) {
@@ -100,16 +115,18 @@ int main(int argc, char** argv) {
     else if (a == "--bag" && has_value) bag = argv[++i];
     else if (a == "--out" && has_value) out_dir = argv[++i];
     else if (a == "--every" && has_value) hold.every = std::atoi(argv[++i]);
+    else if (a == "--pose-errors" && has_value) pose_errors = argv[++i];
     else {
-      std::fprintf(stderr, "usage: bench_map_quality [--data DIR] [--only intel|fr079|sim_office|sim_office_half_cell] "
-                           "[--bag FILE] [--out DIR] [--every N] [--incremental-only]\n");
+      std::fprintf(stderr, "usage: bench_map_quality [--data DIR] [--only intel|fr079|sim_office|sim_office_half_cell|sim_office_pose_errors] "
+                           "[--bag FILE] [--out DIR] [--every N] [--incremental-only] [--pose-errors METRES:DEGREES]\n");
       return 2;
     }
   }
   std::vector<Dataset> datasets = {{"intel", data_dir + "/intel_corrected/intel-corrected.log.gz"},
                                    {"fr079", data_dir + "/fr079_corrected/freiburg-079-corrected.log.gz"},
                                    {"sim_office", "sim:office:0"},
-                                   {"sim_office_half_cell", "sim:office:0.025"}};
+                                   {"sim_office_half_cell", "sim:office:0.025"},
+                                   {"sim_office_pose_errors", "sim:office:0.025:" + pose_errors}};
   if (!bag.empty()) {
     const std::size_t slash = bag.find_last_of('/');
     datasets = {{bag.substr(slash == std::string::npos ? 0 : slash + 1), bag}};
