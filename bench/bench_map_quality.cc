@@ -16,6 +16,7 @@
 //
 //   bench_map_quality [--data DIR] [--only intel|fr079|sim_office|sim_office_half_cell|sim_office_pose_errors]
 //                     [--bag FILE] [--out DIR] [--every N] [--incremental-only] [--pose-errors METRES:DEGREES]
+//                     [--p-occupied P] [--p-free P]   (the inverse model's; default 0.75 / 0.4)
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -106,6 +107,7 @@ int main(int argc, char** argv) {
   std::string only, out_dir, bag, pose_errors = "0.02:0.5";
   bool incremental_only = false;
   osm::HoldOut hold{10, 5};
+  osm::MapperOptions options;  // the defaults, but for the inverse model's --p-occupied / --p-free
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool has_value = i + 1 < argc;
@@ -116,9 +118,12 @@ int main(int argc, char** argv) {
     else if (a == "--out" && has_value) out_dir = argv[++i];
     else if (a == "--every" && has_value) hold.every = std::atoi(argv[++i]);
     else if (a == "--pose-errors" && has_value) pose_errors = argv[++i];
+    else if (a == "--p-occupied" && has_value) options.insert.model.p_occupied = std::atof(argv[++i]);
+    else if (a == "--p-free" && has_value) options.insert.model.p_free = std::atof(argv[++i]);
     else {
       std::fprintf(stderr, "usage: bench_map_quality [--data DIR] [--only intel|fr079|sim_office|sim_office_half_cell|sim_office_pose_errors] "
-                           "[--bag FILE] [--out DIR] [--every N] [--incremental-only] [--pose-errors METRES:DEGREES]\n");
+                           "[--bag FILE] [--out DIR] [--every N] [--incremental-only] [--pose-errors METRES:DEGREES]\n"
+                           "       [--p-occupied P] [--p-free P]\n");
       return 2;
     }
   }
@@ -139,7 +144,6 @@ int main(int argc, char** argv) {
     if (!readScans(d.file, &all)) return 1;
     if (!out_dir.empty()) std::system(("mkdir -p '" + out_dir + "'").c_str());
     for (std::size_t k = 0; k < all.size(); ++k) (hold.holds(k) ? held : train).push_back(all[k]);
-    const osm::MapperOptions options;
     auto judge = [&](const std::string& map, const osm::GridImage& grid, Clock::time_point t0) {
       const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
       const osm::GridImage trinary = osm::trinaryOf(grid);
