@@ -20,7 +20,6 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
-#include <random>
 #include <string>
 #include <vector>
 
@@ -62,16 +61,12 @@ bool readScans(const std::string& path, std::vector<osm::Scan>* scans) {
     double shift = 0.0, sigma_xy = 0.0, sigma_deg = 0.0;
     std::sscanf(path.c_str() + sim.size(), "%lf:%lf:%lf", &shift, &sigma_xy, &sigma_deg);
     *scans = osm::sim::SimulatedSession(osm::sim::FloorPlan::office(), osm::sim::SessionSpec::officeTour()).allScans();
-    std::mt19937 rng(11);
-    std::normal_distribution<double> unit(0.0, 1.0);
-    for (osm::Scan& scan : *scans) {
-      scan.sensor_pose.translation() += Eigen::Vector3d(shift, shift, 0.0);
-      if (sigma_xy > 0.0 || sigma_deg > 0.0) {
-        const double dx = sigma_xy * unit(rng), dy = sigma_xy * unit(rng), da = sigma_deg * M_PI / 180.0 * unit(rng);
-        const Eigen::Vector3d at = scan.sensor_pose.translation();
-        scan.sensor_pose.prerotate(Eigen::AngleAxisd(da, Eigen::Vector3d::UnitZ()));
-        scan.sensor_pose.translation() = at + Eigen::Vector3d(dx, dy, 0.0);
-      }
+    for (osm::Scan& scan : *scans) scan.sensor_pose.translation() += Eigen::Vector3d(shift, shift, 0.0);
+    if (sigma_xy > 0.0 || sigma_deg > 0.0) {
+      osm::sim::PoseErrors errors;
+      errors.sigma_xy = sigma_xy;
+      errors.sigma_yaw = sigma_deg * M_PI / 180.0;
+      osm::sim::addPoseErrors(scans, errors);
     }
     return true;
   }

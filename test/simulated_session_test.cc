@@ -1,7 +1,10 @@
 // The whole simulated TurtleBot session mapped in-process, scored against the floor plan.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <vector>
 
 #include "../bench/peer_maps.h"  // the peers of issue 18, as bench_map_quality builds them
 #include "octo_slice_mapper/held_out_score.h"
@@ -108,4 +111,64 @@ TEST_F(SimulatedSessionTest, OnHeldOutScansTheOptimizedMapMatchesTheHitMissGrid)
     EXPECT_GT(ours, octomap_server) << "moved " << shift;
     EXPECT_GT(held.size(), 100u);
   }
+}
+
+// With a corrected log's pose errors (each scan's recorded pose 3 cm and 1 deg off, sigma), the
+// peers' walls blur and ours must not: the incremental slice ahead of both peers and the pass's
+// map ahead of the better one by 0.05, the targets issue 18 sets on the real logs (measured 0.81
+// and 0.86 against 0.74 and 0.72; with exact poses the grid wins, the test above).
+TEST_F(SimulatedSessionTest, WithACorrectedLogsPoseErrorsOurMapsBeatBothPeers) {
+  std::vector<Scan> scans = session_->allScans();
+  for (Scan& s : scans) s.sensor_pose.translation() += Eigen::Vector3d(0.025, 0.025, 0.0);  // walls inside cells
+  sim::PoseErrors errors;
+  errors.sigma_xy = 0.03;
+  errors.sigma_yaw = 1.0 * M_PI / 180.0;
+  sim::addPoseErrors(&scans, errors);
+  const HoldOut hold{10, 5};
+  std::vector<Scan> train, held;
+  for (std::size_t k = 0; k < scans.size(); ++k) (hold.holds(k) ? held : train).push_back(scans[k]);
+  const MapperOptions options;
+  Mapper mapper(options);
+  for (const Scan& s : train) ASSERT_TRUE(mapper.insert(s).ok());
+  const GridImage incremental = gridImageOf(mapper.slice());
+  const GridImage optimized = inFrameOf(mapper.optimize(/*warm_start=*/true).grid, incremental);
+  const auto within = [&](const GridImage& grid) { return scoreHeldOut(trinaryOf(grid), held).within_10cm; };
+  const double ours = within(incremental), pass = within(optimized);
+  const double grid = within(bench::hitMissGrid(train, options.resolution, /*max_likelihood=*/true));
+  const double octomap_server =
+      within(bench::octomapServerMap(train, options.resolution, options.slice.min_z, options.slice.max_z));
+  std::printf("[ held out, pose errors ] incremental %.4f, optimized %.4f, hit/miss grid %.4f, octomap_server %.4f\n",
+              ours, pass, grid, octomap_server);
+  const double best_peer = std::max(grid, octomap_server);
+  EXPECT_GT(ours, best_peer);
+  EXPECT_GE(pass, best_peer + 0.05);
+}
+
+TEST(PoseErrors, AreIndependentPerScanWithTheGivenSpreadAndKeepTheReadings) {
+  std::vector<Scan> scans(4000);
+  for (Scan& s : scans) {
+    s.sensor_pose = Eigen::Isometry3d::Identity();
+    s.sensor_pose.translation() = Eigen::Vector3d(1.0, 2.0, 0.26);
+    s.ranges = {1.0f, 2.0f};
+  }
+  sim::PoseErrors errors;
+  errors.sigma_xy = 0.02;
+  errors.sigma_yaw = 0.01;
+  sim::addPoseErrors(&scans, errors);
+  double sx = 0, sxx = 0, syaw = 0, syy = 0, lag = 0;
+  double previous = 0.0;
+  for (const Scan& s : scans) {
+    const double dx = s.sensor_pose.translation().x() - 1.0;
+    const double yaw = std::atan2(s.sensor_pose.linear()(1, 0), s.sensor_pose.linear()(0, 0));
+    sx += dx, sxx += dx * dx, syaw += yaw, syy += yaw * yaw, lag += dx * previous;
+    previous = dx;
+    EXPECT_DOUBLE_EQ(s.sensor_pose.translation().z(), 0.26);
+    EXPECT_EQ(s.ranges, (std::vector<float>{1.0f, 2.0f}));
+  }
+  const double n = double(scans.size());
+  EXPECT_NEAR(sx / n, 0.0, 0.002);
+  EXPECT_NEAR(std::sqrt(sxx / n), 0.02, 0.002);
+  EXPECT_NEAR(syaw / n, 0.0, 0.001);
+  EXPECT_NEAR(std::sqrt(syy / n), 0.01, 0.001);
+  EXPECT_NEAR(lag / n / (sxx / n), 0.0, 0.1);  // no correlation from one scan to the next
 }

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <cmath>
 #include <cstdint>
 #include <random>
 #include <vector>
@@ -83,6 +84,17 @@ struct Pose3D {
 
 // The odometry poses for the true `poses` (the first one is where odom starts).
 std::vector<Pose3D> deadReckoned(const std::vector<Pose2D>& poses, const DeadReckoning& model);
+
+// A corrected log's poses: a SLAM system's, off the true ones by a few centimetres and a fraction
+// of a degree, independently from scan to scan (where dead reckoning's errors add up).
+struct PoseErrors {
+  double sigma_xy = 0.02;                   // m, in x and in y
+  double sigma_yaw = 0.5 * M_PI / 180.0;    // rad
+  std::uint32_t seed = 11;
+};
+// Moves each scan's recorded sensor pose by such errors (turned about its own position); its
+// readings stay those taken where it really was.
+void addPoseErrors(std::vector<Scan>* scans, const PoseErrors& errors);
 
 class SimulatedSession {
  public:

@@ -163,6 +163,17 @@ Scan SimulatedSession::scanAt(double t, std::mt19937* rng) const {
   return scan;
 }
 
+void addPoseErrors(std::vector<Scan>* scans, const PoseErrors& errors) {
+  std::mt19937 rng(errors.seed);
+  std::normal_distribution<double> unit(0.0, 1.0);
+  for (Scan& scan : *scans) {
+    const double dx = errors.sigma_xy * unit(rng), dy = errors.sigma_xy * unit(rng), dyaw = errors.sigma_yaw * unit(rng);
+    const Eigen::Vector3d at = scan.sensor_pose.translation();
+    scan.sensor_pose.prerotate(Eigen::AngleAxisd(dyaw, Eigen::Vector3d::UnitZ()));
+    scan.sensor_pose.translation() = at + Eigen::Vector3d(dx, dy, 0.0);
+  }
+}
+
 std::vector<Pose3D> deadReckoned(const std::vector<Pose2D>& poses, const DeadReckoning& model) {
   std::vector<Pose3D> out;
   if (poses.empty()) return out;
