@@ -17,6 +17,7 @@
 //   bench_map_quality [--data DIR] [--only intel|fr079|sim_office|sim_office_half_cell|sim_office_pose_errors]
 //                     [--bag FILE] [--out DIR] [--every N] [--incremental-only] [--pose-errors METRES:DEGREES]
 //                     [--p-occupied P] [--p-free P]   (the inverse model's; default 0.75 / 0.4)
+//                     [--forward-sigma-base M] [--forward-sigma-per-meter M] [--z-rand Z]   (the pass's)
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -115,10 +116,14 @@ int main(int argc, char** argv) {
     else if (a == "--pose-errors" && has_value) pose_errors = argv[++i];
     else if (a == "--p-occupied" && has_value) options.insert.model.p_occupied = std::atof(argv[++i]);
     else if (a == "--p-free" && has_value) options.insert.model.p_free = std::atof(argv[++i]);
+    else if (a == "--forward-sigma-base" && has_value) options.optimizer.model.sigma_base = std::atof(argv[++i]);
+    else if (a == "--forward-sigma-per-meter" && has_value) options.optimizer.model.sigma_per_meter = std::atof(argv[++i]);
+    else if (a == "--z-rand" && has_value) options.optimizer.model.z_rand = std::atof(argv[++i]);
     else {
       std::fprintf(stderr, "usage: bench_map_quality [--data DIR] [--only intel|fr079|sim_office|sim_office_half_cell|sim_office_pose_errors] "
                            "[--bag FILE] [--out DIR] [--every N] [--incremental-only] [--pose-errors METRES:DEGREES]\n"
-                           "       [--p-occupied P] [--p-free P]\n");
+                           "       [--p-occupied P] [--p-free P] [--forward-sigma-base M] "
+                           "[--forward-sigma-per-meter M] [--z-rand Z]\n");
       return 2;
     }
   }
