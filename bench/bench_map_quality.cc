@@ -103,7 +103,7 @@ int main(int argc, char** argv) {
   std::string only, out_dir, bag, pose_errors = "0.02:0.5";
   bool incremental_only = false;
   osm::HoldOut hold{10, 5};
-  osm::MapperOptions options;  // the defaults, but for the inverse model's --p-occupied / --p-free
+  osm::MapperOptions options;  // the defaults, but for the models' settings given below
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool has_value = i + 1 < argc;
