@@ -6,6 +6,8 @@
 #include <limits>
 #include <stdexcept>
 
+#include "octo_slice_mapper/occupancy_percent.h"
+
 namespace octo_slice_mapper {
 namespace {
 
@@ -97,8 +99,9 @@ void SliceGrid::findBandLayers() {
 // One descent to the deepest node holding the whole band of this column, then a few levels down
 // per layer: 5 layers cost ~1.5 root-to-leaf walks instead of 5. Voxels of cached layers are read
 // from the cache (band_layers_, found once per update), which the tree may lag behind. Compared
-// as log-odds, one probability at the end: it is monotonic in them, and a tilted scan's columns
-// have several known layers (two exp() per layer were a quarter of its slice update).
+// as log-odds, one percent at the end (OccupancyPercent, a table: no exp()): it is monotonic in
+// them, and a tilted scan's columns have several known layers (two exp() per layer were a quarter
+// of its slice update).
 std::int8_t SliceGrid::columnValue(std::uint16_t kx, std::uint16_t ky) const {
   const octomap::OcTreeNode* top = nullptr;
   bool searched = false;  // the descent to `top` only when a layer needs the tree
@@ -130,8 +133,7 @@ std::int8_t SliceGrid::columnValue(std::uint16_t kx, std::uint16_t ky) const {
   // its best-observed layer: a tilted scan's beams graze the layers beside theirs with the cone's
   // edge, and the weak evidence there (45 %, say) must not hide the layer they crossed (issue 21:
   // a degree of tilt turned a fifth of the free cells grey, unknown to map_server).
-  const double value = octomap::probability(most >= 0.0f ? most : least);
-  return static_cast<std::int8_t>(std::lround(value * 100.0));
+  return OccupancyPercent::of(most >= 0.0f ? most : least);
 }
 
 // Grows the grid (keeping its contents) so that it covers the key rectangle. Growth adds a
