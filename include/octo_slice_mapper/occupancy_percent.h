@@ -1,9 +1,10 @@
 // A voxel's log-odds as the slice shows it, in percent: lround(100 * octomap::probability(l)),
-// without the exp() (with the lround, a tenth of a tilted scan's slice update, issue 21).
+// without the exp() (with the lround, a fifth of the instructions of a tilted scan's slice update,
+// issue 21).
 //
-// The percent changes at 100 log-odds; a table of 1 025 buckets, each narrower than the closest
-// two of them, holds each bucket's percent at its lower end and the float at which it steps up
-// (if it does inside the bucket). Both are found once, by bisection over the floats themselves
+// The percent steps up at 100 log-odds, never closer than 0.04 apart; a table of 1 025 buckets of
+// 1/64 each holds each bucket's percent at its lower end and the float at which it steps up (if
+// it does inside the bucket). Both are found once, by bisection over the floats themselves
 // with the exact function, so the table gives the exact function's answer for every float (it
 // relies on the exact function being monotonic, as the slice's comparing log-odds already does;
 // occupancy_percent_test checks every float near every step and bucket edge, and a sample of all).
