@@ -41,8 +41,8 @@ TEST(OccupancyPercent, EveryFloatNearEachStepAndBucketEdgeGivesTheExactPercent) 
                                      << int(OccupancyPercent::exact(l));
     }
   };
-  // The steps: where the exact percent changes (from p = (k - 0.5) / 100), each found to within a
-  // float by the exact function and then checked 300 floats either side.
+  // The steps: the percent changes at p = (k - 0.5) / 100, near l = log(p / (1 - p)) (a few floats
+  // off at most, by rounding): 300 floats either side of each.
   for (int k = 1; k <= 100; ++k) {
     const double p = (k - 0.5) / 100.0;
     around(static_cast<float>(std::log(p / (1.0 - p))), 300, check);
