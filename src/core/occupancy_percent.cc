@@ -46,21 +46,22 @@ OccupancyPercent::OccupancyPercent() {
   const std::int64_t first = orderOf(-kRange) + 1, last = orderOf(kRange) - 1;  // the floats inside (-8, 8)
   below_ = exact(-kRange);
   above_ = exact(kRange);
+  // Bucket b's floats: from lo, the first that maps to it, to the one before the next bucket's first.
+  std::int64_t lo = first;
   for (int b = 0; b < kBuckets; ++b) {
-    // The bucket's floats: from the first that maps to it to the one before the first of the next.
-    const std::int64_t lo = firstWhere(first, last, [b](float l) { return bucketOf(l) >= b; });
-    const std::int64_t hi = firstWhere(first, last, [b](float l) { return bucketOf(l) >= b + 1; }) - 1;
+    const std::int64_t next = firstWhere(lo, last, [b](float l) { return bucketOf(l) >= b + 1; });
+    const std::int64_t hi = next - 1;
     step_[b] = std::numeric_limits<float>::infinity();
-    if (lo > hi) {  // no float lands here
-      base_[b] = 0;
-      continue;
+    base_[b] = 0;
+    if (lo <= hi) {  // else no float lands here
+      base_[b] = exact(floatAt(lo));
+      const int top = exact(floatAt(hi));
+      if (top > base_[b] + 1) throw std::logic_error("occupancy percent: a bucket holds two steps");
+      if (top == base_[b] + 1) {
+        step_[b] = floatAt(firstWhere(lo, hi, [this, b](float l) { return exact(l) > base_[b]; }));
+      }
     }
-    base_[b] = exact(floatAt(lo));
-    const int top = exact(floatAt(hi));
-    if (top > base_[b] + 1) throw std::logic_error("occupancy percent: a bucket holds two steps");
-    if (top == base_[b] + 1) {
-      step_[b] = floatAt(firstWhere(lo, hi, [this, b](float l) { return exact(l) > base_[b]; }));
-    }
+    lo = next;
   }
 }
 
