@@ -203,3 +203,60 @@ TEST(SliceGrid, ASparseMapRebuildsItsLeavesColumns) {
   EXPECT_LT(slice.valueAt(200.0, 200.0), 50);
   EXPECT_EQ(slice.valueAt(0.0, 0.0), kUnknownCell);
 }
+
+// A column follows most changes of its voxels from its own cell (updateColumns with the changes,
+// columnAfter): random updates of a few columns' band layers through the layer cache, each batch
+// checked against the same batch without the changes (every listed column read from its layers).
+// The values run over the whole clamping range, so that every rule is taken, both signs, the 50 %
+// boundary and voxels moving away from the extreme that counts.
+TEST(SliceGrid, ColumnsFollowTheirChangesAsIfTheyWereRead) {
+  octomap::OcTree tree(0.05);
+  tree.setClampingThresMin(0.003);
+  tree.setClampingThresMax(0.997);
+  LayerCache cache(&tree);
+  SliceGrid followed(tree, SliceOptions{}, &cache), read(tree, SliceOptions{}, &cache);
+  const unsigned lo = followed.bandMinKey(), hi = followed.bandMaxKey();
+  ASSERT_GE(hi - lo, 3u) << "the default band holds several layers";
+  const octomap::OcTreeKey origin = tree.coordToKey(1.0, 2.0, 0.26);
+  std::mt19937 rng(11);
+  std::uniform_int_distribution<int> column(0, 3), layer(int(lo) - 1, int(hi) + 1), steps(-8, 8);
+  const float step = 0.35f;  // a few steps cross 0 and reach the bounds (about +-5.8)
+  std::size_t changes_seen = 0, followed_alone = 0;
+  for (int batch = 0; batch < 3000; ++batch) {
+    std::vector<octomap::OcTreeKey> keys;
+    std::vector<VoxelChange> changes;
+    const int n = 1 + batch % 6;
+    for (int u = 0; u < n; ++u) {
+      const octomap::OcTreeKey key(origin[0] + column(rng), origin[1] + column(rng), std::uint16_t(layer(rng)));
+      if (std::find(keys.begin(), keys.end(), key) != keys.end()) continue;  // one change per voxel and batch
+      LayerCache::Layer& l = cache.layer(key[2]);
+      cache.cover(&l, key[0], key[1], key[0], key[1]);
+      VoxelChange change;
+      if (cache.apply(l, key[0], key[1], step * steps(rng), &change)) {
+        const int kx = key[0] - read.originKeyX(), ky = key[1] - read.originKeyY();
+        const bool covered = read.width() > 0 && kx >= 0 && ky >= 0 && kx < read.width() && ky < read.height();
+        if (key[2] >= lo && key[2] <= hi && covered) followed_alone += SliceGrid::columnAfter(read.at(kx, ky), change) != kPendingCell;
+        keys.push_back(key);
+        changes.push_back(change);
+      }
+    }
+    const KeyBox box = KeyBox::of(keys);
+    followed.updateColumns(keys, box, changes);
+    read.updateColumns(keys, box);
+    changes_seen += keys.size();
+    ASSERT_EQ(followed.data(), read.data()) << "batch " << batch;
+  }
+  EXPECT_GT(changes_seen, 5000u);
+  // Most changes need no read (counted against each column's value before its batch).
+  EXPECT_GT(followed_alone, changes_seen / 2);
+  EXPECT_GT(read.knownCells(), 10u);
+  cache.flush();  // a rebuild finds the columns through the octree's leaves
+  SliceGrid rebuilt(tree, SliceOptions{});
+  rebuilt.rebuild();
+  for (int dx = 0; dx < 4; ++dx) {
+    for (int dy = 0; dy < 4; ++dy) {
+      const double x = tree.keyToCoord(origin[0] + dx), y = tree.keyToCoord(origin[1] + dy);
+      EXPECT_EQ(followed.valueAt(x, y), rebuilt.valueAt(x, y)) << dx << ", " << dy;
+    }
+  }
+}

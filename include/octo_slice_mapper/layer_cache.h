@@ -16,6 +16,13 @@
 
 namespace octo_slice_mapper {
 
+// A voxel's log-odds before and after one update that changed it (`before` a NaN: it had none).
+// The slice needs no other layer of the voxel's column to follow most such changes (SliceGrid).
+struct VoxelChange {
+  float before;
+  float after;
+};
+
 // Holds, per cached z layer, each touched voxel's log-odds exactly as the octree would hold it
 // after the same updates: the per-voxel arithmetic of OctoMap's updateNode (early out at a
 // clamping bound, float add, clamp) is repeated on the cached value, so flushing the values
@@ -77,8 +84,10 @@ class LayerCache {
   // Grows `layer`'s directory to cover the key rectangle (call before apply() in it).
   void cover(Layer* layer, unsigned kx0, unsigned ky0, unsigned kx1, unsigned ky1);
 
-  // One update of voxel (kx, ky) of `layer`, which must cover it; false if the value did not change.
-  __attribute__((always_inline)) inline bool apply(Layer& layer, unsigned kx, unsigned ky, float update) {
+  // One update of voxel (kx, ky) of `layer`, which must cover it; false if the value did not change,
+  // else the change goes to `change` (when given).
+  __attribute__((always_inline)) inline bool apply(Layer& layer, unsigned kx, unsigned ky, float update,
+                                                   VoxelChange* change = nullptr) {
     std::unique_ptr<Tile>& slot = layer.slot(kx, ky);
     if (!slot) slot = newTile(layer.z, kx, ky);
     const unsigned index = cellIndex(kx, ky);
@@ -86,7 +95,8 @@ class LayerCache {
     // updateNode's early out, decided here without a call (false for a voxel without a value).
     const float old = slot->value[index];
     if (update >= 0.0f ? old >= tree_->getClampingThresMaxLog() : old <= tree_->getClampingThresMinLog()) return false;
-    return applyTo({&slot->value[index], &slot->dirty[ky & kTileMask], octomap::OcTreeKey(kx, ky, layer.z)}, update);
+    return applyTo({&slot->value[index], &slot->dirty[ky & kTileMask], octomap::OcTreeKey(kx, ky, layer.z)}, update,
+                   change);
   }
   // The same for a voxel of any layer (cached from now on).
   bool apply(const octomap::OcTreeKey& key, float update);
@@ -127,7 +137,7 @@ class LayerCache {
     return bits;
   }
   std::unique_ptr<Tile> newTile(std::uint16_t z, unsigned kx, unsigned ky) const;
-  bool applyTo(const Ref& ref, float update);
+  bool applyTo(const Ref& ref, float update, VoxelChange* change = nullptr);
 
   octomap::OcTree* tree_;
   bool hold_everything_ = false;

@@ -20,20 +20,21 @@ class OccupancyPercent {
   static std::int8_t of(float log_odds) { return table().lookup(log_odds); }
   // The function the table stands for.
   static std::int8_t exact(float log_odds);
-
- private:
-  static constexpr float kRange = 8.0f;       // beyond +-8 the percent is 0 or 100
-  static constexpr float kPerUnit = 64.0f;    // buckets per unit of log-odds (steps are >= 0.04 apart)
-  static constexpr int kBuckets = 1025;       // 16 * 64, and one for l + 8 rounding up to 16
-  OccupancyPercent();
+  // The table itself, for loops that look up many values (of() finds it per call).
   static const OccupancyPercent& table();
-  static int bucketOf(float log_odds) { return static_cast<int>((log_odds + kRange) * kPerUnit); }
   std::int8_t lookup(float log_odds) const {
     if (!(log_odds > -kRange)) return below_;
     if (!(log_odds < kRange)) return above_;
     const int b = bucketOf(log_odds);
     return static_cast<std::int8_t>(base_[b] + (log_odds >= step_[b]));
   }
+
+ private:
+  static constexpr float kRange = 8.0f;       // beyond +-8 the percent is 0 or 100
+  static constexpr float kPerUnit = 64.0f;    // buckets per unit of log-odds (steps are >= 0.04 apart)
+  static constexpr int kBuckets = 1025;       // 16 * 64, and one for l + 8 rounding up to 16
+  OccupancyPercent();
+  static int bucketOf(float log_odds) { return static_cast<int>((log_odds + kRange) * kPerUnit); }
   std::int8_t below_, above_;
   std::int8_t base_[kBuckets];
   float step_[kBuckets];  // where the bucket's percent becomes base_ + 1 (+inf: not in it)

@@ -57,6 +57,9 @@ struct InsertResult {
   // box: what the slice and the published map update must follow. A voxel updated without a
   // change (at its clamping bound) was known before, so its column is in the slice already.
   std::vector<octomap::OcTreeKey> updated_keys;
+  // Each updated key's values before and after, where the insertion knew them (a scan through the
+  // layer cache); else empty. The slice then follows most changes without reading their columns.
+  std::vector<VoxelChange> changes;
   KeyBox touched;
   std::string error;               // non-empty: the whole scan was rejected, map untouched
   bool ok() const { return error.empty(); }

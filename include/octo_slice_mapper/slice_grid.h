@@ -22,6 +22,8 @@ struct SliceOptions {
 };
 
 constexpr std::int8_t kUnknownCell = -1;
+// A cell waiting to be recomputed (inside updateColumns only): no value a cell can hold.
+constexpr std::int8_t kPendingCell = 127;
 
 // Cell (i, j) covers the octree column with keys (origin_key_x + i, origin_key_y + j). Values are
 // the band's occupancy probability in percent (0..100) or -1 when no voxel of the band is known.
@@ -39,8 +41,13 @@ class SliceGrid {
   // rebuild(): the slice skips band layers that none of them has seen.
   void update(const KeyBox& box);
   // Recomputes only the columns of `keys` that lie in the band (what one scan changed); cost is
-  // proportional to the number of keys.
-  void updateColumns(const std::vector<octomap::OcTreeKey>& keys, const KeyBox& box);
+  // proportional to the number of keys. With `changes` (one per key: its voxel's value before and
+  // after), a column follows most of them from its own cell alone (columnAfter).
+  void updateColumns(const std::vector<octomap::OcTreeKey>& keys, const KeyBox& box,
+                     const std::vector<VoxelChange>& changes = {});
+  // A column's value after one of its voxels changed, from its value before, when that alone
+  // tells; else kPendingCell (the column must be read).
+  static std::int8_t columnAfter(std::int8_t value, const VoxelChange& change);
   // Recomputes everything from the tree (after loading a map or for checking); its cost follows
   // the band's leaves. Throws std::length_error if the slice would pass options().max_cells.
   void rebuild();

@@ -82,7 +82,7 @@ std::unique_ptr<LayerCache::Tile> LayerCache::newTile(std::uint16_t z, unsigned 
 // The arithmetic of OccupancyOcTreeBase::updateNode on one voxel: a voxel the octree does not
 // hold starts at 0; one already at the bound the update pushes towards is left alone; else the
 // update is added in float and the sum clamped.
-bool LayerCache::applyTo(const Ref& ref, float update) {
+bool LayerCache::applyTo(const Ref& ref, float update, VoxelChange* change) {
   float old = *ref.value;
   if (isUnloaded(old)) {
     const octomap::OcTreeNode* node = tree_->search(ref.key);
@@ -104,6 +104,7 @@ bool LayerCache::applyTo(const Ref& ref, float update) {
   }
   if (known && value == old) return false;
   *ref.value = value;
+  if (change) *change = {old, value};
   if (!(*ref.dirty_row & ref.dirtyBit())) {
     *ref.dirty_row |= ref.dirtyBit();
     dirty_.push_back(ref);

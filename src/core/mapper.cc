@@ -96,7 +96,7 @@ InsertResult Mapper::record(InsertResult result, bool cloud) {
     (cloud ? stats_.clouds_rejected : stats_.scans_rejected)++;
     return result;
   }
-  slice_->updateColumns(result.updated_keys, result.touched);
+  slice_->updateColumns(result.updated_keys, result.touched, result.changes);
   boundUnflushed();  // after clouds too: a camera alone was never flushed before
   (cloud ? stats_.clouds_inserted : stats_.scans_inserted)++;
   (cloud ? stats_.cloud_points : stats_.readings) += result.readings;

@@ -629,12 +629,20 @@ InsertResult ScanInserter::insertIntoLayers(const Eigen::Vector3d& origin, const
     LayerCache::Layer& layer = *layers[0];
     evidence_.drain([&](const octomap::OcTreeKey& key, float update) __attribute__((always_inline)) {
       ++updates;
-      if (cache_.apply(layer, key[0], key[1], update)) result.updated_keys.push_back(key);
+      VoxelChange change;
+      if (cache_.apply(layer, key[0], key[1], update, &change)) {
+        result.updated_keys.push_back(key);
+        result.changes.push_back(change);
+      }
     });
   } else {
     evidence_.drain([&](const octomap::OcTreeKey& key, float update) __attribute__((always_inline)) {
       ++updates;
-      if (cache_.apply(*layers[key[2] - z0], key[0], key[1], update)) result.updated_keys.push_back(key);
+      VoxelChange change;
+      if (cache_.apply(*layers[key[2] - z0], key[0], key[1], update, &change)) {
+        result.updated_keys.push_back(key);
+        result.changes.push_back(change);
+      }
     });
   }
   result.voxels_updated = updates;

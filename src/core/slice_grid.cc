@@ -18,8 +18,28 @@ std::uint64_t nextGeometry() {
   return next++;
 }
 
-// A cell waiting to be recomputed: no value a cell can hold (0..100, or unknown).
-constexpr std::int8_t kPending = 127;
+// SliceGrid::columnAfter, inline for updateColumns' loop. The column's rule (columnValue): its
+// most occupied voxel when that is 50 % or more, else its freest. The percent is monotonic in the
+// log-odds and 50 at 0, so a column below 50 has every known voxel below 0 (the freest counts),
+// one above 50 has an occupied voxel (the most occupied counts). The changed voxel then either
+// takes over (it is now the extreme that counts, or the first voxel >= 0) or, if it moved away
+// from the extreme, leaves the column as it was unless it was that extreme itself: when its old
+// percent equals the column's, that cannot be told here.
+inline std::int8_t followChange(std::int8_t value, const VoxelChange& change, const OccupancyPercent& percent) {
+  const std::int8_t after = percent.lookup(change.after);
+  if (value == kUnknownCell) return after;  // its first known voxel
+  const bool was_known = LayerCache::isKnown(change.before);
+  if (value < 50) {
+    if (change.after >= 0.0f) return after;  // the only voxel >= 0: the most occupied now counts
+    if (!was_known || change.after < change.before) return std::min(value, after);
+    return percent.lookup(change.before) > value ? value : kPendingCell;  // was it the freest?
+  }
+  if (value > 50) {
+    if (!was_known || change.after > change.before) return std::max(value, after);
+    return percent.lookup(change.before) < value ? value : kPendingCell;  // the most occupied?
+  }
+  return kPendingCell;  // 50: either rule may be the one that holds
+}
 
 }  // namespace
 
@@ -188,21 +208,36 @@ void SliceGrid::recompute(const KeyBox& box) {
   }
 }
 
-void SliceGrid::updateColumns(const std::vector<octomap::OcTreeKey>& keys, const KeyBox& box) {
+void SliceGrid::updateColumns(const std::vector<octomap::OcTreeKey>& keys, const KeyBox& box,
+                              const std::vector<VoxelChange>& changes) {
   if (box.empty() || box.max[2] < band_lo_ || box.min[2] > band_hi_) return;
   ensureCovers(box.min[0], box.min[1], box.max[0], box.max[1]);
-  // Each column once, however many of its voxels changed (a tilted scan's or a cloud's keys lie in
-  // several layers; a depth frame changes up to all 16 layers of the navigation band in a
-  // column): a column is listed when first met and its cell marked kPending until recomputed (a
-  // sort of the columns was a sixth of a tilted scan's slice update).
+  const bool with_changes = changes.size() == keys.size();
+  const OccupancyPercent& percent = OccupancyPercent::table();
+  // Each column read once, however many of its voxels changed (a tilted scan's or a cloud's keys
+  // lie in several layers; a depth frame changes up to all 16 layers of the navigation band in a
+  // column): a column is listed when first met and its cell marked kPendingCell until recomputed (a
+  // sort of the columns was a sixth of a tilted scan's slice update). A column that follows a
+  // change from its own cell is not read at all: the changes are taken in order, each from the
+  // value the ones before it left (each voxel changes once per call), and a column that must be
+  // read is read at the end, when all its voxels hold their new values.
   std::vector<std::uint32_t>& columns = columns_;  // reused: no allocation per scan
   columns.clear();
-  for (const octomap::OcTreeKey& k : keys) {
+  for (std::size_t i = 0; i < keys.size(); ++i) {
+    const octomap::OcTreeKey& k = keys[i];
     if (k[2] < band_lo_ || k[2] > band_hi_) continue;
     noteLayers(k[2], k[2]);
     const std::uint32_t index = std::uint32_t(k[1] - origin_key_y_) * std::uint32_t(width_) + (k[0] - origin_key_x_);
-    if (data_[index] == kPending) continue;
-    data_[index] = kPending;
+    std::int8_t& cell = data_[index];
+    if (cell == kPendingCell) continue;
+    if (with_changes) {
+      const std::int8_t after = followChange(cell, changes[i], percent);
+      if (after != kPendingCell) {
+        cell = after;
+        continue;
+      }
+    }
+    cell = kPendingCell;
     columns.push_back(index);
   }
   findBandLayers();
@@ -211,6 +246,10 @@ void SliceGrid::updateColumns(const std::vector<octomap::OcTreeKey>& keys, const
     const std::uint16_t ky = std::uint16_t(origin_key_y_ + index / std::uint32_t(width_));
     data_[index] = columnValue(kx, ky);
   }
+}
+
+std::int8_t SliceGrid::columnAfter(std::int8_t value, const VoxelChange& change) {
+  return followChange(value, change, OccupancyPercent::table());
 }
 
 void SliceGrid::rebuild() {
@@ -256,14 +295,14 @@ void SliceGrid::rebuild() {
   for (const KeyBox& leaf : columns) {
     for (unsigned ky = leaf.min[1]; ky <= leaf.max[1]; ++ky) {
       std::int8_t* row = &data_[std::size_t(ky - origin_key_y_) * width_];
-      std::fill(row + (leaf.min[0] - origin_key_x_), row + (leaf.max[0] - origin_key_x_) + 1, kPending);
+      std::fill(row + (leaf.min[0] - origin_key_x_), row + (leaf.max[0] - origin_key_x_) + 1, kPendingCell);
     }
   }
   for (unsigned ky = box.min[1]; ky <= box.max[1]; ++ky) {
     std::int8_t* row = &data_[std::size_t(ky - origin_key_y_) * width_];
     for (unsigned kx = box.min[0]; kx <= box.max[0]; ++kx) {
       std::int8_t& cell = row[kx - origin_key_x_];
-      if (cell == kPending) cell = columnValue(static_cast<std::uint16_t>(kx), static_cast<std::uint16_t>(ky));
+      if (cell == kPendingCell) cell = columnValue(static_cast<std::uint16_t>(kx), static_cast<std::uint16_t>(ky));
     }
   }
 }
