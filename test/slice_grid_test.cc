@@ -235,7 +235,9 @@ TEST(SliceGrid, ColumnsFollowTheirChangesAsIfTheyWereRead) {
       if (cache.apply(l, key[0], key[1], step * steps(rng), &change)) {
         const int kx = key[0] - read.originKeyX(), ky = key[1] - read.originKeyY();
         const bool covered = read.width() > 0 && kx >= 0 && ky >= 0 && kx < read.width() && ky < read.height();
-        if (key[2] >= lo && key[2] <= hi && covered) followed_alone += SliceGrid::columnAfter(read.at(kx, ky), change) != kPendingCell;
+        if (key[2] >= lo && key[2] <= hi && covered) {
+          followed_alone += SliceGrid::columnAfter(read.at(kx, ky), change) != kPendingCell;
+        }
         keys.push_back(key);
         changes.push_back(change);
       }
