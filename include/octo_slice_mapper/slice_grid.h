@@ -22,7 +22,7 @@ struct SliceOptions {
 };
 
 constexpr std::int8_t kUnknownCell = -1;
-// A cell waiting to be recomputed (inside updateColumns only): no value a cell can hold.
+// A cell waiting to be recomputed while updateColumns() or rebuild() runs: no value a cell holds.
 constexpr std::int8_t kPendingCell = 127;
 
 // Cell (i, j) covers the octree column with keys (origin_key_x + i, origin_key_y + j). Values are

@@ -624,25 +624,25 @@ InsertResult ScanInserter::insertIntoLayers(const Eigen::Vector3d& origin, const
     cache_.cover(layers[z - z0], box.min[0], box.min[1], box.max[0], box.max[1]);
   }
   std::size_t updates = 0;
+  // A changed voxel, with its values for the slice (SliceGrid::updateColumns).
+  const auto changed = [&result](const octomap::OcTreeKey& key,
+                                 const VoxelChange& change) __attribute__((always_inline)) {
+    result.updated_keys.push_back(key);
+    result.changes.push_back(change);
+  };
   if (z0 == z1) {
     // A level scan, the common case: one layer, no per-voxel layer lookup (9 % of its time).
     LayerCache::Layer& layer = *layers[0];
     evidence_.drain([&](const octomap::OcTreeKey& key, float update) __attribute__((always_inline)) {
       ++updates;
       VoxelChange change;
-      if (cache_.apply(layer, key[0], key[1], update, &change)) {
-        result.updated_keys.push_back(key);
-        result.changes.push_back(change);
-      }
+      if (cache_.apply(layer, key[0], key[1], update, &change)) changed(key, change);
     });
   } else {
     evidence_.drain([&](const octomap::OcTreeKey& key, float update) __attribute__((always_inline)) {
       ++updates;
       VoxelChange change;
-      if (cache_.apply(*layers[key[2] - z0], key[0], key[1], update, &change)) {
-        result.updated_keys.push_back(key);
-        result.changes.push_back(change);
-      }
+      if (cache_.apply(*layers[key[2] - z0], key[0], key[1], update, &change)) changed(key, change);
     });
   }
   result.voxels_updated = updates;
