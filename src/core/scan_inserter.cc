@@ -419,11 +419,12 @@ class VoxelCentres {
         dz_(tree.keyToCoord(origin_key[2]) - origin.z()) {}
 
   // Along `direction` and the squared distance off it (from its nearest point ahead of the origin).
+  // The centre in double, as keyToCoord(key_type) and placeInLayer have it. (This used to round it
+  // through float, as keyToCoord(OcTreeKey) does, but GCC 12.2 at -O2 vectorized x and y together
+  // and dropped their rounding, keeping z's: doc/tilted-scans-record.md, session 35.)
   __attribute__((always_inline)) void place(const octomap::OcTreeKey& key, const Eigen::Vector3d& direction,
                                             double* along, double* lateral_sq) const {
-    // The centre as OcTree::keyToCoord(key) gives it (a point3d: float coordinates).
-    const Eigen::Vector3d v(double(float(coord(key[0]))) - origin_.x(), double(float(coord(key[1]))) - origin_.y(),
-                            double(float(coord(key[2]))) - origin_.z());
+    const Eigen::Vector3d v(coord(key[0]) - origin_.x(), coord(key[1]) - origin_.y(), coord(key[2]) - origin_.z());
     *along = v.dot(direction);
     *lateral_sq = (v - std::max(0.0, *along) * direction).squaredNorm();
   }
