@@ -27,8 +27,10 @@ enum class EvidenceCombining : std::uint8_t {
 // kOccupiedWins is a single unsigned max over code(value): positive values get the top bit, so
 // they rank above every negative one, and a float's bits order like its magnitude. code() is
 // exact and invertible: the update drain() hands on is one of the values add() was given.
-// kSum keeps the running sum's float bits in the word (a sum that comes back to exactly zero is
-// kept as -0, so that the voxel stays listed; drain() hands on no zero update).
+// kSum keeps the running sum's float bits in the word. A voxel is listed when its word is 0 before
+// an add: one whose sum came back to exactly zero is listed again by its next add, and drain()
+// hands on its final value at its first listing and skips the later ones (its word is 0 then).
+// drain() hands on no zero update.
 class ScanEvidence {
  public:
   // Windows above this many voxels (each side rounded up to a power of two) would cost more
@@ -44,26 +46,35 @@ class ScanEvidence {
   // Starts a scan whose voxels all lie in `box` and that adds at most `max_adds` pieces of
   // evidence; false (and nothing started) if the box is larger than kMaxCells.
   bool begin(const KeyBox& box, std::size_t max_adds);
-  // Evidence `value` for `key` (zero is no evidence), which must lie in the box given to begin().
-  __attribute__((always_inline)) inline void add(const octomap::OcTreeKey& key, float value) {
+  // Evidence `value` (not zero: the caller filters out "no evidence") for `key`, which must lie in
+  // the box given to begin().
+  void add(const octomap::OcTreeKey& key, float value) {
+    if (combining_ == EvidenceCombining::kSum) {
+      addAs<EvidenceCombining::kSum>(key, value);
+    } else {
+      addAs<EvidenceCombining::kOccupiedWins>(key, value);
+    }
+  }
+  // add() for a window that combines by C (the caller checks combining() once per scan: per voxel
+  // the check was a tenth of an add's instructions).
+  template <EvidenceCombining C>
+  __attribute__((always_inline)) inline void addAs(const octomap::OcTreeKey& key, float value) {
     const std::uint32_t index = indexOf(key);
     std::uint32_t& cell = cells_[index];
     const std::uint32_t old = cell;
-    cell = combine(combining_, old, value);
-    touched_[count_] = index;  // kept only if this is the voxel's first evidence (branch-free)
-    count_ += (old == 0) & (value != 0.0f);
+    cell = combine(C, old, value);
+    touched_[count_] = index;  // kept only if the voxel had no evidence (branch-free)
+    count_ += old == 0;
   }
   // Calls fn(key, update) once per voxel that received evidence since begin(), in the order they
   // first did, and leaves the window empty for the next scan.
   template <typename Fn>
   void drain(Fn&& fn) {
-    for (std::size_t i = 0; i < count_; ++i) {
-      const std::uint32_t index = touched_[i];
-      const float v = decode(combining_, cells_[index]);
-      if (v != 0.0f) fn(keyOf(index), v);
-      cells_[index] = 0;
+    if (combining_ == EvidenceCombining::kSum) {
+      drainAs<EvidenceCombining::kSum>(fn);
+    } else {
+      drainAs<EvidenceCombining::kOccupiedWins>(fn);
     }
-    count_ = 0;
   }
   // The window's size is virtual: of it, only pages scans reached are resident.
   std::size_t memoryBytes() const { return (capacity_ + touched_capacity_) * sizeof(std::uint32_t); }
@@ -91,7 +102,7 @@ class ScanEvidence {
     sum += value;
     std::uint32_t bits;
     std::memcpy(&bits, &sum, sizeof bits);
-    return (bits == 0 && word != 0) ? 0x80000000u : bits;  // back to +0: keep it listed, as -0
+    return bits;
   }
   static float decode(EvidenceCombining combining, std::uint32_t word) {
     if (combining == EvidenceCombining::kOccupiedWins) return value(word);
@@ -104,6 +115,16 @@ class ScanEvidence {
   void setCombining(EvidenceCombining combining) { combining_ = combining; }
 
  private:
+  template <EvidenceCombining C, typename Fn>
+  __attribute__((always_inline)) inline void drainAs(Fn& fn) {
+    for (std::size_t i = 0; i < count_; ++i) {
+      const std::uint32_t index = touched_[i];
+      const float v = decode(C, cells_[index]);
+      if (v != 0.0f) fn(keyOf(index), v);
+      cells_[index] = 0;
+    }
+    count_ = 0;
+  }
   // Power-of-two strides: an index converts back to its key by shifts and masks (drain needs the
   // key). Linear in the key: the box's corner is folded into offset_.
   std::uint32_t indexOf(const octomap::OcTreeKey& key) const {

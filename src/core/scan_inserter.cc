@@ -555,10 +555,19 @@ std::vector<KeyUpdate> ScanInserter::computeUpdates(const Eigen::Vector3d& origi
 // The evidence of the beams prepareBeams kept, into the window begun over their box.
 void ScanInserter::traceIntoWindow(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
                                    const std::vector<Beam>& beams, double half_angle) {
-  traceBeams(
-      origin, origin_key, beams, half_angle,
-      [this](const octomap::OcTreeKey& key, float value) __attribute__((always_inline)) { evidence_.add(key, value); },
-      /*shortcuts=*/true);
+  if (evidence_.combining() == EvidenceCombining::kSum) {  // scans
+    traceBeams(
+        origin, origin_key, beams, half_angle,
+        [this](const octomap::OcTreeKey& key, float value)
+            __attribute__((always_inline)) { evidence_.addAs<EvidenceCombining::kSum>(key, value); },
+        /*shortcuts=*/true);
+  } else {  // clouds, by default
+    traceBeams(
+        origin, origin_key, beams, half_angle,
+        [this](const octomap::OcTreeKey& key, float value)
+            __attribute__((always_inline)) { evidence_.addAs<EvidenceCombining::kOccupiedWins>(key, value); },
+        /*shortcuts=*/true);
+  }
 }
 
 // The same combining as the window's, in a hash map: for a scan whose box is too large for one.
