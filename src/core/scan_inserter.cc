@@ -476,13 +476,22 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
         sink(key, value * weight);
       }
     };
+    // The free valley's value, weighted once per beam rather than per voxel (the same product).
+    const float weighted_free = l_free * weight;
+    auto emitFree = [&](const octomap::OcTreeKey& key) __attribute__((always_inline)) {
+      if (fanned) {
+        beam_evidence_.push_back({key, weighted_free});
+      } else {
+        sink(key, weighted_free);
+      }
+    };
     bool axis_ray = false;  // whether the ray being walked is the beam's axis
     // Per voxel of a ray: voxels the ray leaves at a fraction t_exit in (t_lo, t_hi) of its length
     // are the free valley without the model; the others are placed by `place` and judged.
     auto visitor = [&](double t_lo, double t_hi, const auto& place) {
       return [&, place, t_lo, t_hi](const octomap::OcTreeKey& key, double t_exit) __attribute__((always_inline)) {
         if (t_exit > t_lo && t_exit < t_hi) {
-          emit(key, l_free);
+          emitFree(key);
           return;
         }
         double along, lateral_sq;
