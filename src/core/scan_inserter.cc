@@ -421,7 +421,7 @@ class VoxelCentres {
   // Along `direction` and the squared distance off it (from its nearest point ahead of the origin).
   // The centre in double, as keyToCoord(key_type) and placeInLayer have it. (This used to round it
   // through float, as keyToCoord(OcTreeKey) does, but GCC 12.2 at -O2 vectorized x and y together
-  // and dropped their rounding, keeping z's: doc/tilted-scans-record.md, session 35.)
+  // and dropped their rounding, keeping z's: doc/tilted-scans-record.md.)
   __attribute__((always_inline)) void place(const octomap::OcTreeKey& key, const Eigen::Vector3d& direction,
                                             double* along, double* lateral_sq) const {
     const Eigen::Vector3d v(coord(key[0]) - origin_.x(), coord(key[1]) - origin_.y(), coord(key[2]) - origin_.z());
@@ -469,35 +469,29 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
     const bool fanned = ray_begin_[b + 1] - ray_begin_[b] > 1;
     beam_evidence_.clear();
     const float weight = beam.weight;  // 1 but for a cloud's end-voxel rays (x * 1.0f is x)
-    auto emit = [&](const octomap::OcTreeKey& key, float value) __attribute__((always_inline)) {
+    // Evidence already multiplied by the beam's weight.
+    auto emit = [&](const octomap::OcTreeKey& key, float weighted) __attribute__((always_inline)) {
       if (fanned) {
-        beam_evidence_.push_back({key, value * weight});
+        beam_evidence_.push_back({key, weighted});
       } else {
-        sink(key, value * weight);
+        sink(key, weighted);
       }
     };
     // The free valley's value, weighted once per beam rather than per voxel (the same product).
     const float weighted_free = l_free * weight;
-    auto emitFree = [&](const octomap::OcTreeKey& key) __attribute__((always_inline)) {
-      if (fanned) {
-        beam_evidence_.push_back({key, weighted_free});
-      } else {
-        sink(key, weighted_free);
-      }
-    };
     bool axis_ray = false;  // whether the ray being walked is the beam's axis
     // Per voxel of a ray: voxels the ray leaves at a fraction t_exit in (t_lo, t_hi) of its length
     // are the free valley without the model; the others are placed by `place` and judged.
     auto visitor = [&](double t_lo, double t_hi, const auto& place) {
       return [&, place, t_lo, t_hi](const octomap::OcTreeKey& key, double t_exit) __attribute__((always_inline)) {
         if (t_exit > t_lo && t_exit < t_hi) {
-          emitFree(key);
+          emit(key, weighted_free);
           return;
         }
         double along, lateral_sq;
         place(key, &along, &lateral_sq);
         const float value = evidence.at(along, lateral_sq, axis_ray);
-        if (value != 0.0f) emit(key, value);
+        if (value != 0.0f) emit(key, value * weight);
       };
     };
     const auto in_3d = [&](const octomap::OcTreeKey& k, double* along, double* lateral_sq) __attribute__((
