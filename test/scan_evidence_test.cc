@@ -126,3 +126,37 @@ TEST(ScanEvidence, AnAbandonedScanLeavesNothingBehind) {
   evidence.drain([&](const octomap::OcTreeKey&, float update) { updates.push_back(update); });
   EXPECT_EQ(updates, std::vector<float>{-0.4f});
 }
+
+// The window names its voxels by index for the walk (voxel_traversal.h): every key of the box
+// has its own index, which names it back, and a step along an axis adds that axis's stride.
+TEST(ScanEvidence, IndicesNameTheBoxsKeysAndStepByTheStrides) {
+  ScanEvidence evidence;
+  const octomap::OcTreeKey lo(32760, 40000, 32766), hi(32772, 40006, 32769);  // 13 x 7 x 4, not powers of two
+  ASSERT_TRUE(evidence.begin(boxOf(lo, hi), 1));
+  std::map<ScanEvidence::Index, KeyTuple> seen;
+  for (int k = lo[2]; k <= hi[2]; ++k) {
+    for (int j = lo[1]; j <= hi[1]; ++j) {
+      for (int i = lo[0]; i <= hi[0]; ++i) {
+        const octomap::OcTreeKey key(i, j, k);
+        const ScanEvidence::Index index = evidence.indexOf(key);
+        EXPECT_TRUE(seen.emplace(index, tupleOf(key)).second) << "two keys share index " << index;
+        EXPECT_EQ(tupleOf(evidence.keyOf(index)), tupleOf(key));
+        for (int axis = 0; axis < 3; ++axis) {
+          octomap::OcTreeKey next = key;
+          if (next[axis] == hi[axis]) continue;
+          ++next[axis];
+          EXPECT_EQ(evidence.indexOf(next), index + evidence.stride(axis));
+          EXPECT_EQ(evidence.indexOf(key), evidence.indexOf(next) + (ScanEvidence::Index(0) - evidence.stride(axis)));
+        }
+      }
+    }
+  }
+  // Evidence added by index is the key's: drain() hands it on under that key.
+  const octomap::OcTreeKey key(32765, 40003, 32768);
+  evidence.addAtAs<EvidenceCombining::kSum>(evidence.indexOf(key), 0.7f);
+  std::vector<std::pair<KeyTuple, float>> updates;
+  evidence.drain([&](const octomap::OcTreeKey& k, float update) { updates.emplace_back(tupleOf(k), update); });
+  ASSERT_EQ(updates.size(), 1u);
+  EXPECT_EQ(updates[0].first, tupleOf(key));
+  EXPECT_EQ(updates[0].second, 0.7f);
+}

@@ -149,12 +149,17 @@ TEST_F(VoxelTraversalTest, TheFewZWalkIsTheSpaceWalkBitForBit) {
     }
     std::vector<Crossed> space, few_z;
     const auto into = [](std::vector<Crossed>* out) {
-      return [out](int i, int j, int k, double t) { out->push_back({{i, j, k}, t}); };
+      return [out](std::uint64_t p, double t) {
+        const octomap::OcTreeKey key = PackedKeys::keyOf(p);
+        out->push_back({{key[0], key[1], key[2]}, t});
+      };
     };
-    int i = ka[0], j = ka[1], k = ka[2];
-    walkSpace(i, j, k, axes[0], axes[1], axes[2], steps, into(&space));
-    i = ka[0], j = ka[1], k = ka[2];
-    walkSpaceFewZ(i, j, k, axes[0], axes[1], axes[2], steps, into(&few_z));
+    const auto step = AxisSteps<std::uint64_t>::of(axes[0], axes[1], axes[2], PackedKeys::stride(0),
+                                                   PackedKeys::stride(1), PackedKeys::stride(2));
+    std::uint64_t p = PackedKeys::indexOf(ka);
+    walkSpace(p, axes[0], axes[1], axes[2], step, steps, into(&space));
+    p = PackedKeys::indexOf(ka);
+    walkSpaceFewZ(p, axes[0], axes[1], axes[2], step, steps, into(&few_z));
     ASSERT_EQ(space.size(), few_z.size()) << "segment " << n;
     for (std::size_t c = 0; c < space.size(); ++c) {
       EXPECT_EQ(space[c].cell, few_z[c].cell) << "segment " << n << ", cell " << c;
@@ -180,9 +185,10 @@ TEST_F(VoxelTraversalTest, AxisParallelSegments) {
 // set up from the ray's fractional cell coordinates, and stops where its visitor says so.
 TEST(WalkPlaneTest, CellsOfTravelAndStopping) {
   std::mt19937 rng(5);
-  std::uniform_real_distribution<double> u(0.0, 40.0), angle(-M_PI, M_PI);
+  // Cells on both sides of 0: the walk packs i and j into one index, negative ones too.
+  std::uniform_real_distribution<double> u(-40.0, 40.0), angle(-M_PI, M_PI), len(0.0, 20.0);
   for (int n = 0; n < 300; ++n) {
-    const double fx = u(rng), fy = u(rng), a = angle(rng), length = u(rng) / 2;  // in cells
+    const double fx = u(rng), fy = u(rng), a = angle(rng), length = len(rng);  // in cells
     const double dx = std::cos(a), dy = std::sin(a);
     int i = int(std::floor(fx)), j = int(std::floor(fy));
     const int ie = int(std::floor(fx + dx * length)), je = int(std::floor(fy + dy * length));

@@ -33,6 +33,7 @@ enum class EvidenceCombining : std::uint8_t {
 // drain() hands on no zero update.
 class ScanEvidence {
  public:
+  using Index = std::uint32_t;
   // Windows above this many voxels (each side rounded up to a power of two) would cost more
   // memory than they save (80 m beams at 0.02 m): begin() refuses them and the caller combines
   // the scan another way.
@@ -56,16 +57,31 @@ class ScanEvidence {
     }
   }
   // add() for a window that combines by C (the caller checks combining() once per scan: per voxel
-  // the check was a tenth of an add's instructions).
+  // the check was a tenth of an add's instructions), at the voxel's index in the window.
   template <EvidenceCombining C>
   __attribute__((always_inline)) inline void addAs(const octomap::OcTreeKey& key, float value) {
-    const std::uint32_t index = indexOf(key);
+    addAtAs<C>(indexOf(key), value);
+  }
+  template <EvidenceCombining C>
+  __attribute__((always_inline)) inline void addAtAs(Index index, float value) {
     std::uint32_t& cell = cells_[index];
     const std::uint32_t old = cell;
     cell = combine(C, old, value);
     touched_[count_] = index;  // kept only if the voxel had no evidence (branch-free)
     count_ += old == 0;
   }
+  // The window's voxels as a walk's indices (voxel_traversal.h): a voxel's index, the key of an
+  // index and what a step along each axis adds. Linear in the key: the box's corner is folded
+  // into offset_; power-of-two strides: an index converts back to its key by shifts and masks.
+  Index indexOf(const octomap::OcTreeKey& key) const {
+    const std::uint64_t linear = (std::uint64_t(key[2]) << shift_z_) + (std::uint64_t(key[1]) << shift_y_) + key[0];
+    return static_cast<Index>(linear - offset_);
+  }
+  octomap::OcTreeKey keyOf(Index index) const {
+    return octomap::OcTreeKey((index & mask_x_) + lo_[0], ((index >> shift_y_) & mask_y_) + lo_[1],
+                              (index >> shift_z_) + lo_[2]);
+  }
+  Index stride(int axis) const { return axis == 0 ? 1u : axis == 1 ? Index{1} << shift_y_ : Index{1} << shift_z_; }
   // Calls fn(key, update) once per voxel that received evidence since begin(), in the order they
   // first did, and leaves the window empty for the next scan.
   template <typename Fn>
@@ -125,17 +141,6 @@ class ScanEvidence {
     }
     count_ = 0;
   }
-  // Power-of-two strides: an index converts back to its key by shifts and masks (drain needs the
-  // key). Linear in the key: the box's corner is folded into offset_.
-  std::uint32_t indexOf(const octomap::OcTreeKey& key) const {
-    const std::uint64_t linear = (std::uint64_t(key[2]) << shift_z_) + (std::uint64_t(key[1]) << shift_y_) + key[0];
-    return static_cast<std::uint32_t>(linear - offset_);
-  }
-  octomap::OcTreeKey keyOf(std::uint32_t index) const {
-    return octomap::OcTreeKey((index & mask_x_) + lo_[0], ((index >> shift_y_) & mask_y_) + lo_[1],
-                              (index >> shift_z_) + lo_[2]);
-  }
-
   EvidenceCombining combining_;
   std::uint32_t* cells_ = nullptr;  // calloc'ed: pages a scan never reaches are never made resident
   std::size_t capacity_ = 0;

@@ -157,11 +157,11 @@ class ScanInserter {
                        const std::vector<Beam>& beams, double half_angle);
   // With `shortcuts`, voxels that are surely in a beam's free valley get l_free without the
   // model being evaluated; without, every voxel is judged (the reference for tests).
-  template <typename Sink>
+  template <typename Cells, typename Sink>
   void traceBeams(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key, const std::vector<Beam>& beams,
-                  double half_angle, Sink&& sink, bool shortcuts);
+                  double half_angle, const Cells& cells, Sink&& sink, bool shortcuts);
   template <typename Sink>
-  static void handOnOncePerVoxel(std::vector<KeyUpdate>* evidence, Sink& sink);
+  static void handOnOncePerVoxel(std::vector<KeyUpdate>* evidence, Sink&& sink);
   double traceLength(const Beam& beam) const;
   struct Ray {
     Eigen::Vector3d direction;

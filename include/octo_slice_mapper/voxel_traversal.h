@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <type_traits>
 
@@ -41,54 +42,80 @@ __attribute__((always_inline)) inline bool keepWalking(Visit& visit, Args... arg
     return visit(args...);
   }
 }
-
-// One step in the x-y plane: x when `x_first`, else y. Both candidates computed, one selected
-// (conditional moves): the loop-carried chain is a compare and a select, not a load indexed by
-// the compare (measured: 0.40 -> 0.36 ms/scan).
-__attribute__((always_inline)) inline void stepPlane(bool x_first, const WalkAxis& x, const WalkAxis& y, int& i, int& j,
-                                                     double& tx, double& ty) {
-  const double next_tx = tx + x.delta, next_ty = ty + y.delta;
-  i = x_first ? i + x.step : i;
-  j = x_first ? j : j + y.step;
-  tx = x_first ? next_tx : tx;
-  ty = x_first ? ty : next_ty;
-}
 }  // namespace detail
 
-// Visits cell (i, j) and the `steps` cells after it, as visit(i, j, t_exit): t_exit is the
-// parameter where the walk leaves the cell. Ties step y. Returns false if visit stopped it; i and
-// j are then the last cell visited.
-// Branch-free per step: which axis advances is unpredictable along a slanted ray, and a
-// mispredicted branch per cell costs more than the rest of the step.
-template <typename Visit>
-__attribute__((always_inline)) inline bool walkPlane(int& i, int& j, WalkAxis x, WalkAxis y, int steps, Visit&& visit) {
+// A walk's cell is one linear index: cell (i, j, k) is i * stride_x + j * stride_y + k * stride_z,
+// with strides of the caller's choosing (an OcTree key packed per axis, a window's cells, a grid's
+// i and j packed), so that a step adds one number and the visitor gets the index it stores at
+// rather than coordinates to combine (issue 21: per voxel, combining a key into a window's index
+// cost more than the step). Index is unsigned: a step backwards wraps, as it must.
+template <typename Index>
+struct AxisSteps {
+  Index x = 0, y = 0, z = 0;  // what one step along each axis (in its walk's direction) adds
+  // For the axes of a walk (their directions) and the index strides of one cell per axis.
+  static AxisSteps of(const WalkAxis& ax, const WalkAxis& ay, const WalkAxis& az, Index sx, Index sy, Index sz) {
+    return {along(ax, sx), along(ay, sy), along(az, sz)};
+  }
+  static Index along(const WalkAxis& axis, Index stride) { return axis.step < 0 ? Index(0) - stride : stride; }
+};
+
+// Visits cell p and the `steps` cells after it in the plane, as visit(p, t_exit): t_exit is the
+// parameter where the walk leaves the cell. Ties step y. Returns false if visit stopped it; p is
+// then the last cell visited.
+// Which axis advances is unpredictable along a slanted ray: the step is a select (conditional
+// moves), so that the loop-carried chain is a compare and a select (measured: 0.40 -> 0.36 ms/scan).
+template <typename Index, typename Visit>
+__attribute__((always_inline)) inline bool walkPlane(Index& p, const WalkAxis& x, const WalkAxis& y, Index step_x,
+                                                     Index step_y, int steps, Visit&& visit) {
   double tx = x.next, ty = y.next;
   for (;; --steps) {
     const bool x_first = tx < ty;
-    if (!detail::keepWalking(visit, i, j, std::min(tx, ty))) return false;
+    if (!detail::keepWalking(visit, p, std::min(tx, ty))) return false;
     if (steps <= 0) return true;
-    detail::stepPlane(x_first, x, y, i, j, tx, ty);
+    const double next_tx = tx + x.delta, next_ty = ty + y.delta;
+    p += x_first ? step_x : step_y;
+    tx = x_first ? next_tx : tx;
+    ty = x_first ? ty : next_ty;
   }
 }
 
-// The same in 3D: visit(i, j, k, t_exit), (i, j, k) the last cell visited after it. The axis is x if t_x < t_y, else y, unless t_z is not
-// above that one: then z. Selected without a branch (as in walkPlane): the branches made a tilted
-// scan's rays 3x the cost of a level one's (issue 21).
+// The same in a 2D grid of cells (i, j), as the global pass walks it: visit(i, j, t_exit), and
+// (i, j) the last cell visited after it. The cell is packed as i + j * 2^32 (any two ints; i is
+// the low half read as signed, j what is left).
 template <typename Visit>
-__attribute__((always_inline)) inline bool walkSpace(int& i, int& j, int& k, WalkAxis x, WalkAxis y, WalkAxis z,
-                                                     int steps, Visit&& visit) {
+inline bool walkPlane(int& i, int& j, const WalkAxis& x, const WalkAxis& y, int steps, Visit&& visit) {
+  const auto unpack_i = [](std::uint64_t p) { return static_cast<int>(static_cast<std::uint32_t>(p)); };
+  const auto unpack_j = [&](std::uint64_t p) {
+    return static_cast<int>(static_cast<std::int64_t>(p - static_cast<std::uint64_t>(std::int64_t{unpack_i(p)})) >> 32);
+  };
+  std::uint64_t p = (static_cast<std::uint64_t>(static_cast<std::int64_t>(j)) << 32) +
+                    static_cast<std::uint64_t>(std::int64_t{i});
+  const std::uint64_t step_x = AxisSteps<std::uint64_t>::along(x, 1),
+                      step_y = AxisSteps<std::uint64_t>::along(y, std::uint64_t{1} << 32);
+  const bool done = walkPlane(p, x, y, step_x, step_y, steps, [&](std::uint64_t c, double t_exit) __attribute__((always_inline)) {
+    return detail::keepWalking(visit, unpack_i(c), unpack_j(c), t_exit);
+  });
+  i = unpack_i(p);
+  j = unpack_j(p);
+  return done;
+}
+
+// The same in 3D: visit(p, t_exit), p the last cell visited after it. The axis is x if t_x < t_y,
+// else y, unless t_z is not above that one: then z. Selected without a branch (as in walkPlane):
+// the branches made a tilted scan's rays 3x the cost of a level one's (issue 21).
+template <typename Index, typename Visit>
+__attribute__((always_inline)) inline bool walkSpace(Index& p, const WalkAxis& x, const WalkAxis& y, const WalkAxis& z,
+                                                     const AxisSteps<Index>& step, int steps, Visit&& visit) {
   double tx = x.next, ty = y.next, tz = z.next;
   for (;; --steps) {
     const bool x_before_y = tx < ty;
     const double t_xy = x_before_y ? tx : ty;
     const bool z_next = !(t_xy < tz);
-    if (!detail::keepWalking(visit, i, j, k, z_next ? tz : t_xy)) return false;
+    if (!detail::keepWalking(visit, p, z_next ? tz : t_xy)) return false;
     if (steps <= 0) return true;
     const bool x_next = !z_next && x_before_y, y_next = !z_next && !x_before_y;
     const double next_tx = tx + x.delta, next_ty = ty + y.delta, next_tz = tz + z.delta;
-    i = x_next ? i + x.step : i;
-    j = y_next ? j + y.step : j;
-    k = z_next ? k + z.step : k;
+    p += z_next ? step.z : x_before_y ? step.x : step.y;
     tx = x_next ? next_tx : tx;
     ty = y_next ? next_ty : ty;
     tz = z_next ? next_tz : tz;
@@ -97,36 +124,56 @@ __attribute__((always_inline)) inline bool walkSpace(int& i, int& j, int& k, Wal
 
 // The same walk, cell for cell and t for t, for a segment whose z steps are few among its steps
 // (a scan tilted by a degree or two: a 12 m ray changes layer a handful of times in 240 steps).
-// The rare z step is a branch, predicted right almost every time; x against y stays branch-free.
+// The rare z step is a branch, predicted right almost every time; x against y stays a select.
 // Fewer instructions per step than walkSpace, which pays for selecting z every step; for a steep
 // ray (a depth camera's) the branch would be mispredicted, so traverseVoxels picks per segment.
-template <typename Visit>
-__attribute__((always_inline)) inline bool walkSpaceFewZ(int& i, int& j, int& k, WalkAxis x, WalkAxis y, WalkAxis z,
-                                                         int steps, Visit&& visit) {
+template <typename Index, typename Visit>
+__attribute__((always_inline)) inline bool walkSpaceFewZ(Index& p, const WalkAxis& x, const WalkAxis& y,
+                                                         const WalkAxis& z, const AxisSteps<Index>& step, int steps,
+                                                         Visit&& visit) {
   double tx = x.next, ty = y.next, tz = z.next;
   for (;; --steps) {
     const bool x_before_y = tx < ty;
     const double t_xy = x_before_y ? tx : ty;
     if (__builtin_expect(!(t_xy < tz), 0)) {  // z next, as walkSpace decides it
-      if (!detail::keepWalking(visit, i, j, k, tz)) return false;
+      if (!detail::keepWalking(visit, p, tz)) return false;
       if (steps <= 0) return true;
-      k += z.step;
+      p += step.z;
       tz += z.delta;
       continue;
     }
-    if (!detail::keepWalking(visit, i, j, k, t_xy)) return false;
+    if (!detail::keepWalking(visit, p, t_xy)) return false;
     if (steps <= 0) return true;
-    detail::stepPlane(x_before_y, x, y, i, j, tx, ty);  // as walkPlane steps
+    const double next_tx = tx + x.delta, next_ty = ty + y.delta;  // as walkPlane steps
+    p += x_before_y ? step.x : step.y;
+    tx = x_before_y ? next_tx : tx;
+    ty = x_before_y ? ty : next_ty;
   }
 }
 
+// OcTree keys as walk indices, 16 bits per axis (keys are 16-bit): for walks that hand on keys.
+struct PackedKeys {
+  using Index = std::uint64_t;
+  static Index indexOf(const octomap::OcTreeKey& key) {
+    return Index{key[0]} | Index{key[1]} << 16 | Index{key[2]} << 32;
+  }
+  static octomap::OcTreeKey keyOf(Index p) {
+    return octomap::OcTreeKey(static_cast<octomap::key_type>(p), static_cast<octomap::key_type>(p >> 16),
+                              static_cast<octomap::key_type>(p >> 32));
+  }
+  static constexpr Index stride(int axis) { return Index{1} << (16 * axis); }
+};
+
 // Octree voxels, in order, from the voxel of `from` (key from_key) to the voxel of `to` (to_key),
-// both included, as visit(key, t_exit) with t_exit a fraction of the segment. Exactly one axis
-// advances per step, so the end voxel is due after the keys' distance in steps; where rounding
-// took another route the end voxel is visited last anyway (at t_exit 1): a beam ends at its return.
-template <typename Visit>
+// both included, as visit(index, t_exit) with t_exit a fraction of the segment and index the
+// voxel's in `cells` (PackedKeys, or a window with the same members). Exactly one axis advances
+// per step, so the end voxel is due after the keys' distance in steps; where rounding took
+// another route the end voxel is visited last anyway (at t_exit 1): a beam ends at its return.
+template <typename Cells, typename Visit>
 inline void traverseVoxels(const octomap::OcTree& tree, const Eigen::Vector3d& from, const Eigen::Vector3d& to,
-                           const octomap::OcTreeKey& from_key, const octomap::OcTreeKey& to_key, Visit&& visit) {
+                           const octomap::OcTreeKey& from_key, const octomap::OcTreeKey& to_key, const Cells& cells,
+                           Visit&& visit) {
+  using Index = typename Cells::Index;
   const double res = tree.getResolution(), never = std::numeric_limits<double>::infinity();
   WalkAxis axes[3];
   int steps = 0;
@@ -134,35 +181,49 @@ inline void traverseVoxels(const octomap::OcTree& tree, const Eigen::Vector3d& f
     axes[d] = walkAxis(from[d], to[d], tree.keyToCoord(from_key[d]), res, never);
     steps += std::abs(int(to_key[d]) - int(from_key[d]));
   }
-  int i = from_key[0], j = from_key[1], k = from_key[2];
-  const auto at_key = [&visit](int vi, int vj, int vk, double t_exit) __attribute__((always_inline)) {
-    visit(octomap::OcTreeKey(vi, vj, vk), t_exit);
-  };
+  const auto step = AxisSteps<Index>::of(axes[0], axes[1], axes[2], cells.stride(0), cells.stride(1), cells.stride(2));
+  Index p = cells.indexOf(from_key);
+  const Index end = cells.indexOf(to_key);
   // One z step in 16 or fewer: nearly level (the same cells either way, only the speed differs).
   if (16 * std::abs(int(to_key[2]) - int(from_key[2])) <= steps) {
-    walkSpaceFewZ(i, j, k, axes[0], axes[1], axes[2], steps, at_key);
+    walkSpaceFewZ(p, axes[0], axes[1], axes[2], step, steps, visit);
   } else {
-    walkSpace(i, j, k, axes[0], axes[1], axes[2], steps, at_key);
+    walkSpace(p, axes[0], axes[1], axes[2], step, steps, visit);
   }
-  if (i != to_key[0] || j != to_key[1] || k != to_key[2]) visit(to_key, 1.0);
+  if (p != end) visit(end, 1.0);
 }
 
 // The same walk for a segment in one horizontal layer (from.z == to.z): the same voxels and t_exit
 // as traverseVoxels gives for it (its z step never wins), in 2D.
-template <typename Visit>
+template <typename Cells, typename Visit>
 inline void traverseLevel(const octomap::OcTree& tree, const Eigen::Vector3d& from, const Eigen::Vector3d& to,
-                          const octomap::OcTreeKey& from_key, const octomap::OcTreeKey& to_key, Visit&& visit) {
+                          const octomap::OcTreeKey& from_key, const octomap::OcTreeKey& to_key, const Cells& cells,
+                          Visit&& visit) {
+  using Index = typename Cells::Index;
   const double res = tree.getResolution();
   constexpr double kNever = 1e300;
   const WalkAxis x = walkAxis(from.x(), to.x(), tree.keyToCoord(from_key[0]), res, kNever);
   const WalkAxis y = walkAxis(from.y(), to.y(), tree.keyToCoord(from_key[1]), res, kNever);
   const int steps = std::abs(int(to_key[0]) - int(from_key[0])) + std::abs(int(to_key[1]) - int(from_key[1]));
-  const octomap::key_type z = from_key[2];
-  int i = from_key[0], j = from_key[1];
-  walkPlane(i, j, x, y, steps, [&visit, z](int vi, int vj, double t_exit) __attribute__((always_inline)) {
-    visit(octomap::OcTreeKey(vi, vj, z), t_exit);
-  });
-  if (i != to_key[0] || j != to_key[1]) visit(to_key, 1.0);
+  const Index step_x = AxisSteps<Index>::along(x, cells.stride(0)), step_y = AxisSteps<Index>::along(y, cells.stride(1));
+  Index p = cells.indexOf(from_key);
+  const Index end = cells.indexOf(to_key);
+  walkPlane(p, x, y, step_x, step_y, steps, visit);
+  if (p != end) visit(end, 1.0);
+}
+
+// The same two walks visiting keys, visit(key, t_exit).
+template <typename Visit>
+inline void traverseVoxels(const octomap::OcTree& tree, const Eigen::Vector3d& from, const Eigen::Vector3d& to,
+                           const octomap::OcTreeKey& from_key, const octomap::OcTreeKey& to_key, Visit&& visit) {
+  traverseVoxels(tree, from, to, from_key, to_key, PackedKeys{},
+                 [&visit](std::uint64_t p, double t_exit) { visit(PackedKeys::keyOf(p), t_exit); });
+}
+template <typename Visit>
+inline void traverseLevel(const octomap::OcTree& tree, const Eigen::Vector3d& from, const Eigen::Vector3d& to,
+                          const octomap::OcTreeKey& from_key, const octomap::OcTreeKey& to_key, Visit&& visit) {
+  traverseLevel(tree, from, to, from_key, to_key, PackedKeys{},
+                [&visit](std::uint64_t p, double t_exit) { visit(PackedKeys::keyOf(p), t_exit); });
 }
 
 }  // namespace octo_slice_mapper

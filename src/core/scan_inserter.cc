@@ -449,10 +449,13 @@ class VoxelCentres {
 }  // namespace
 
 // Second pass: every voxel each beam kept by prepareBeams reaches, with the model's evidence for it, handed to
-// `sink(key, value)` (zero evidence is not handed on).
-template <typename Sink>
+// `sink(index, value)` with the voxel's index in `cells` (PackedKeys or the evidence window; zero
+// evidence is not handed on).
+template <typename Cells, typename Sink>
 void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
-                              const std::vector<Beam>& beams, double half_angle, Sink&& sink, bool shortcuts) {
+                              const std::vector<Beam>& beams, double half_angle, const Cells& cells, Sink&& sink,
+                              bool shortcuts) {
+  using Index = typename Cells::Index;
   if (!cone_ || cone_->halfAngle() != half_angle) cone_.emplace(model_, half_angle);
   const double tan_full = std::tan(model_.fullWeightAngle(half_angle));
   // A voxel's centre is at most half its diagonal from any point inside it.
@@ -470,11 +473,11 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
     beam_evidence_.clear();
     const float weight = beam.weight;  // 1 but for a cloud's end-voxel rays (x * 1.0f is x)
     // Evidence already multiplied by the beam's weight.
-    auto emit = [&](const octomap::OcTreeKey& key, float weighted) __attribute__((always_inline)) {
+    auto emit = [&](Index index, float weighted) __attribute__((always_inline)) {
       if (fanned) {
-        beam_evidence_.push_back({key, weighted});
+        beam_evidence_.push_back({cells.keyOf(index), weighted});
       } else {
-        sink(key, weighted);
+        sink(index, weighted);
       }
     };
     // The free valley's value, weighted once per beam rather than per voxel (the same product).
@@ -483,15 +486,15 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
     // Per voxel of a ray: voxels the ray leaves at a fraction t_exit in (t_lo, t_hi) of its length
     // are the free valley without the model; the others are placed by `place` and judged.
     auto visitor = [&](double t_lo, double t_hi, const auto& place) {
-      return [&, place, t_lo, t_hi](const octomap::OcTreeKey& key, double t_exit) __attribute__((always_inline)) {
+      return [&, place, t_lo, t_hi](Index index, double t_exit) __attribute__((always_inline)) {
         if (t_exit > t_lo && t_exit < t_hi) {
-          emit(key, weighted_free);
+          emit(index, weighted_free);
           return;
         }
         double along, lateral_sq;
-        place(key, &along, &lateral_sq);
+        place(cells.keyOf(index), &along, &lateral_sq);
         const float value = evidence.at(along, lateral_sq, axis_ray);
-        if (value != 0.0f) emit(key, value * weight);
+        if (value != 0.0f) emit(index, value * weight);
       };
     };
     const auto in_3d = [&](const octomap::OcTreeKey& k, double* along, double* lateral_sq) __attribute__((
@@ -516,18 +519,22 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
       }
       const double t_lo = (s_lo - ray.start) / (length - ray.start), t_hi = (s_hi - ray.start) / (length - ray.start);
       if (level_beam) {  // its rays stay in the origin's layer: from.z == far.z exactly
-        traverseLevel(*tree_, from, far, from_key, ray.far_key, visitor(t_lo, t_hi, in_layer));
+        traverseLevel(*tree_, from, far, from_key, ray.far_key, cells, visitor(t_lo, t_hi, in_layer));
       } else {
-        traverseVoxels(*tree_, from, far, from_key, ray.far_key, visitor(t_lo, t_hi, in_3d));
+        traverseVoxels(*tree_, from, far, from_key, ray.far_key, cells, visitor(t_lo, t_hi, in_3d));
       }
     }
-    if (fanned) handOnOncePerVoxel(&beam_evidence_, sink);
+    if (fanned) {
+      handOnOncePerVoxel(&beam_evidence_, [&](const octomap::OcTreeKey& key, float value) {
+        sink(cells.indexOf(key), value);
+      });
+    }
   }
 }
 
 // Hands on each voxel of `evidence` once, with the strongest occupied (else free) value it has.
 template <typename Sink>
-void ScanInserter::handOnOncePerVoxel(std::vector<KeyUpdate>* evidence, Sink& sink) {
+void ScanInserter::handOnOncePerVoxel(std::vector<KeyUpdate>* evidence, Sink&& sink) {
   auto by_key = [](const KeyUpdate& a, const KeyUpdate& b) {
     return a.key[2] != b.key[2] ? a.key[2] < b.key[2] : a.key[1] != b.key[1] ? a.key[1] < b.key[1] : a.key[0] < b.key[0];
   };
@@ -560,15 +567,15 @@ void ScanInserter::traceIntoWindow(const Eigen::Vector3d& origin, const octomap:
                                    const std::vector<Beam>& beams, double half_angle) {
   if (evidence_.combining() == EvidenceCombining::kSum) {  // scans
     traceBeams(
-        origin, origin_key, beams, half_angle,
-        [this](const octomap::OcTreeKey& key, float value)
-            __attribute__((always_inline)) { evidence_.addAs<EvidenceCombining::kSum>(key, value); },
+        origin, origin_key, beams, half_angle, evidence_,
+        [this](ScanEvidence::Index index, float value)
+            __attribute__((always_inline)) { evidence_.addAtAs<EvidenceCombining::kSum>(index, value); },
         /*shortcuts=*/true);
   } else {  // clouds, by default
     traceBeams(
-        origin, origin_key, beams, half_angle,
-        [this](const octomap::OcTreeKey& key, float value)
-            __attribute__((always_inline)) { evidence_.addAs<EvidenceCombining::kOccupiedWins>(key, value); },
+        origin, origin_key, beams, half_angle, evidence_,
+        [this](ScanEvidence::Index index, float value)
+            __attribute__((always_inline)) { evidence_.addAtAs<EvidenceCombining::kOccupiedWins>(index, value); },
         /*shortcuts=*/true);
   }
 }
@@ -579,9 +586,9 @@ std::vector<KeyUpdate> ScanInserter::sparseUpdates(const Eigen::Vector3d& origin
   std::unordered_map<octomap::OcTreeKey, std::uint32_t, octomap::OcTreeKey::KeyHash> sparse;
   const EvidenceCombining combining = evidence_.combining();  // a scan's or a cloud's
   traceBeams(
-      origin, origin_key, beams, half_angle,
-      [&sparse, combining](const octomap::OcTreeKey& key, float value) {
-        std::uint32_t& word = sparse[key];
+      origin, origin_key, beams, half_angle, PackedKeys{},
+      [&sparse, combining](PackedKeys::Index index, float value) {
+        std::uint32_t& word = sparse[PackedKeys::keyOf(index)];
         word = ScanEvidence::combine(combining, word, value);
       },
       /*shortcuts=*/true);
@@ -608,7 +615,9 @@ void ScanInserter::traceEvidence(const Eigen::Vector3d& origin, const std::vecto
   octomap::OcTreeKey origin_key;
   if (!coordToKeySafe(*tree_, origin.x(), origin.y(), origin.z(), &origin_key)) return;
   prepareBeams(origin, origin_key, beams, std::tan(half_angle));
-  traceBeams(origin, origin_key, beams, half_angle, fn, shortcuts);
+  traceBeams(
+      origin, origin_key, beams, half_angle, PackedKeys{},
+      [&fn](PackedKeys::Index index, float value) { fn(PackedKeys::keyOf(index), value); }, shortcuts);
 }
 
 // A scan's rays reach few voxel layers: a level scan (the sensor's x-y plane horizontal) only
