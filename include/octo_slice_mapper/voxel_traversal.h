@@ -80,23 +80,26 @@ __attribute__((always_inline)) inline bool walkPlane(Index& p, const WalkAxis& x
 }
 
 // The same in a 2D grid of cells (i, j), as the global pass walks it: visit(i, j, t_exit), and
-// (i, j) the last cell visited after it. The cell is packed as i + j * 2^32 (any two ints; i is
-// the low half read as signed, j what is left).
+// (i, j) the last cell visited after it.
 template <typename Visit>
 inline bool walkPlane(int& i, int& j, const WalkAxis& x, const WalkAxis& y, int steps, Visit&& visit) {
-  const auto unpack_i = [](std::uint64_t p) { return static_cast<int>(static_cast<std::uint32_t>(p)); };
-  const auto unpack_j = [&](std::uint64_t p) {
-    return static_cast<int>(static_cast<std::int64_t>(p - static_cast<std::uint64_t>(std::int64_t{unpack_i(p)})) >> 32);
+  // The position of the walk above: a step adds {x.step, 0} or {0, y.step}.
+  struct Cell {
+    int i, j;
+    Cell& operator+=(const Cell& step) {
+      i += step.i;
+      j += step.j;
+      return *this;
+    }
+    bool operator!=(const Cell& o) const { return i != o.i || j != o.j; }
   };
-  std::uint64_t p = (static_cast<std::uint64_t>(static_cast<std::int64_t>(j)) << 32) +
-                    static_cast<std::uint64_t>(std::int64_t{i});
-  const std::uint64_t step_x = AxisSteps<std::uint64_t>::along(x, 1),
-                      step_y = AxisSteps<std::uint64_t>::along(y, std::uint64_t{1} << 32);
-  const bool done = walkPlane(p, x, y, step_x, step_y, steps, [&](std::uint64_t c, double t_exit) __attribute__((always_inline)) {
-    return detail::keepWalking(visit, unpack_i(c), unpack_j(c), t_exit);
-  });
-  i = unpack_i(p);
-  j = unpack_j(p);
+  Cell p{i, j};
+  const bool done = walkPlane(p, x, y, Cell{x.step, 0}, Cell{0, y.step}, steps,
+                              [&](const Cell& c, double t_exit) __attribute__((always_inline)) {
+                                return detail::keepWalking(visit, c.i, c.j, t_exit);
+                              });
+  i = p.i;
+  j = p.j;
   return done;
 }
 
