@@ -45,10 +45,10 @@ __attribute__((always_inline)) inline bool keepWalking(Visit& visit, Args... arg
 }  // namespace detail
 
 // A walk's cell is one linear index: cell (i, j, k) is i * stride_x + j * stride_y + k * stride_z,
-// with strides of the caller's choosing (an OcTree key packed per axis, a window's cells, a grid's
-// i and j packed), so that a step adds one number and the visitor gets the index it stores at
-// rather than coordinates to combine (issue 21: per voxel, combining a key into a window's index
-// cost more than the step). Index is unsigned: a step backwards wraps, as it must.
+// with strides of the caller's choosing (an OcTree key packed per axis, a window's cells), so that
+// a step adds one number and the visitor gets the index it stores at rather than coordinates to
+// combine (issue 21: per voxel, combining a key into a window's index cost more than the step).
+// Index is unsigned: a step backwards wraps, as it must.
 template <typename Index>
 struct AxisSteps {
   Index x = 0, y = 0, z = 0;  // what one step along each axis (in its walk's direction) adds
@@ -61,7 +61,7 @@ struct AxisSteps {
 
 // Visits cell p and the `steps` cells after it in the plane, as visit(p, t_exit): t_exit is the
 // parameter where the walk leaves the cell. Ties step y. Returns false if visit stopped it; p is
-// then the last cell visited.
+// then the last cell visited. p is a linear index or anything a step can be added to (+=).
 // Which axis advances is unpredictable along a slanted ray: the step is written as selects, so
 // that the loop-carried chain can be a compare and a select (measured: 0.40 -> 0.36 ms/scan). GCC
 // 12 turns them into a branch in the tracer's loop all the same; masked adds instead (see
@@ -85,7 +85,8 @@ __attribute__((always_inline)) inline bool walkPlane(Index& p, const WalkAxis& x
 // (i, j) the last cell visited after it.
 template <typename Visit>
 inline bool walkPlane(int& i, int& j, const WalkAxis& x, const WalkAxis& y, int steps, Visit&& visit) {
-  // The position of the walk above: a step adds {x.step, 0} or {0, y.step}.
+  // The position of the walk above: a step adds {x.step, 0} or {0, y.step} (packed into one
+  // 64-bit index, the pass's walks cost 9 % more instructions).
   struct Cell {
     int i, j;
     Cell& operator+=(const Cell& step) {
@@ -93,7 +94,6 @@ inline bool walkPlane(int& i, int& j, const WalkAxis& x, const WalkAxis& y, int 
       j += step.j;
       return *this;
     }
-    bool operator!=(const Cell& o) const { return i != o.i || j != o.j; }
   };
   Cell p{i, j};
   const bool done = walkPlane(p, x, y, Cell{x.step, 0}, Cell{0, y.step}, steps,
