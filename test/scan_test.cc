@@ -63,3 +63,40 @@ TEST(ValidateScanHeader, RejectsStructuralProblems) {
   bad_pose.sensor_pose.translation().x() = std::nan("");
   EXPECT_FALSE(validateScanHeader(bad_pose).empty());
 }
+
+namespace {
+// Entry i of the table is exactly what std::cos / std::sin give for beamAngle(i), bit for bit.
+void expectExactTable(BeamDirections& directions, const Scan& scan) {
+  const std::vector<Eigen::Vector2d>& unit = directions.of(scan);
+  ASSERT_EQ(unit.size(), scan.ranges.size());
+  for (std::size_t i = 0; i < unit.size(); ++i) {
+    const double a = scan.beamAngle(i);
+    EXPECT_EQ(std::signbit(unit[i].x()), std::signbit(std::cos(a))) << "beam " << i;
+    EXPECT_EQ(std::signbit(unit[i].y()), std::signbit(std::sin(a))) << "beam " << i;
+    EXPECT_EQ(unit[i].x(), std::cos(a)) << "beam " << i;
+    EXPECT_EQ(unit[i].y(), std::sin(a)) << "beam " << i;
+  }
+}
+}  // namespace
+
+// The table follows the scans' geometry: the same for the same lidar, made anew when the first
+// angle (bit for bit: -0 too), the step or the number of beams changes.
+TEST(BeamDirections, FollowTheScansGeometryExactly) {
+  BeamDirections directions;
+  Scan scan;
+  scan.angle_min = -2.35619f;
+  scan.angle_increment = 0.00436332f;
+  scan.ranges.assign(1081, 1.0f);
+  expectExactTable(directions, scan);
+  expectExactTable(directions, scan);  // kept
+  scan.angle_increment = 0.0087f;
+  expectExactTable(directions, scan);
+  scan.ranges.assign(720, 1.0f);
+  expectExactTable(directions, scan);
+  scan.angle_min = 0.0f;
+  expectExactTable(directions, scan);
+  scan.angle_min = -0.0f;
+  expectExactTable(directions, scan);
+  scan.ranges.clear();
+  EXPECT_TRUE(directions.of(scan).empty());
+}

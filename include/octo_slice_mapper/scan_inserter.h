@@ -134,7 +134,7 @@ class ScanInserter {
   std::vector<Beam> cloudBeams(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points,
                                ReadingCounts* counts) const;
   // A scan's beams.
-  std::vector<Beam> beamsOf(const Scan& scan, ReadingCounts* counts) const;
+  std::vector<Beam> beamsOf(const Scan& scan, ReadingCounts* counts);
   // Every (voxel, evidence) pair the model gives, each beam's once per voxel, before the beams
   // are combined per voxel; with `shortcuts`, as the fast path traces.
   void traceEvidence(const Scan& scan, const std::function<void(const octomap::OcTreeKey&, float)>& fn,
@@ -187,6 +187,7 @@ class ScanInserter {
   std::uint64_t beams_outside_ = 0;     // the current scan's beams ending outside the octree
   std::vector<KeyUpdate> beam_evidence_;  // a fanned beam's evidence before it is combined
   std::optional<InverseSensorModel::ConeTable> cone_;  // for the last half-angle seen
+  BeamDirections directions_;  // for the last scan geometry seen
 
   LayerCache cache_;
 };

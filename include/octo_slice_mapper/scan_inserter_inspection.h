@@ -21,7 +21,7 @@ class ScanInserterInspection {
     return inserter_.cloudBeams(origin, points, counts);
   }
   // How a scan is read as beams.
-  std::vector<Beam> beamsOf(const Scan& scan, ReadingCounts* counts) const { return inserter_.beamsOf(scan, counts); }
+  std::vector<Beam> beamsOf(const Scan& scan, ReadingCounts* counts) { return inserter_.beamsOf(scan, counts); }
 
   // Every (voxel, evidence) pair the model gives for a scan, each beam's once per voxel, before
   // the beams are combined per voxel. By default the model is evaluated for every voxel; with

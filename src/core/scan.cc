@@ -1,6 +1,7 @@
 #include "octo_slice_mapper/scan.h"
 
 #include <cmath>
+#include <cstring>
 #include <sstream>
 
 namespace octo_slice_mapper {
@@ -58,6 +59,21 @@ std::string validateScanHeader(const Scan& scan, std::size_t max_beams) {
   }
   if (!scan.sensor_pose.matrix().allFinite()) return "sensor pose is not finite";
   return "";
+}
+
+const std::vector<Eigen::Vector2d>& BeamDirections::of(const Scan& scan) {
+  // Bitwise comparison of the angles: a NaN geometry is never taken for the last one's.
+  if (unit_.size() != scan.ranges.size() || std::memcmp(&angle_min_, &scan.angle_min, sizeof(float)) != 0 ||
+      std::memcmp(&angle_increment_, &scan.angle_increment, sizeof(float)) != 0) {
+    angle_min_ = scan.angle_min;
+    angle_increment_ = scan.angle_increment;
+    unit_.resize(scan.ranges.size());
+    for (std::size_t i = 0; i < unit_.size(); ++i) {
+      const double a = scan.beamAngle(i);
+      unit_[i] = Eigen::Vector2d(std::cos(a), std::sin(a));
+    }
+  }
+  return unit_;
 }
 
 }  // namespace octo_slice_mapper

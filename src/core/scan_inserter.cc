@@ -17,19 +17,20 @@ ScanInserter::ScanInserter(octomap::OcTree* tree, const InsertOptions& options)
       evidence_(options.combining),
       cache_(tree) {}
 
-std::vector<Beam> ScanInserter::beamsOf(const Scan& scan, ReadingCounts* counts) const {
+std::vector<Beam> ScanInserter::beamsOf(const Scan& scan, ReadingCounts* counts) {
   std::vector<Beam> beams;
   beams.reserve(scan.ranges.size());
   const Eigen::Matrix3d rotation = scan.sensor_pose.linear();
   const double clear = std::min<double>(options_.model.no_return_clear_distance, scan.range_max);
   const double max_range = options_.max_range > 0.0 ? options_.max_range : 1e30;
+  const std::vector<Eigen::Vector2d>& unit = directions_.of(scan);
   for (std::size_t i = 0; i < scan.ranges.size(); ++i) {
     const float r = scan.ranges[i];
     const ReadingKind kind = classifyReading(r, scan.range_min, scan.range_max, options_.readings);
     if (counts) (*counts)[kind]++;
-    const double a = scan.beamAngle(i);
-    const Eigen::Vector3d dir = rotation * Eigen::Vector3d(std::cos(a), std::sin(a), 0.0);
-    const Eigen::Vector3d across = rotation * Eigen::Vector3d(-std::sin(a), std::cos(a), 0.0);
+    const double c = unit[i].x(), s = unit[i].y();
+    const Eigen::Vector3d dir = rotation * Eigen::Vector3d(c, s, 0.0);
+    const Eigen::Vector3d across = rotation * Eigen::Vector3d(-s, c, 0.0);
     if (kind == ReadingKind::kHit) {
       if (r > max_range) {
         beams.push_back({dir, max_range, false, across});  // cut beam: seen free up to max_range
