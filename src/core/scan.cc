@@ -62,7 +62,8 @@ std::string validateScanHeader(const Scan& scan, std::size_t max_beams) {
 }
 
 const std::vector<Eigen::Vector2d>& BeamDirections::of(const Scan& scan) {
-  // Bitwise comparison of the angles: a NaN geometry is never taken for the last one's.
+  // The angles compared bit for bit: with ==, a NaN angle would never match and the table would be
+  // made anew for every scan.
   if (unit_.size() != scan.ranges.size() || std::memcmp(&angle_min_, &scan.angle_min, sizeof(float)) != 0 ||
       std::memcmp(&angle_increment_, &scan.angle_increment, sizeof(float)) != 0) {
     angle_min_ = scan.angle_min;
