@@ -82,13 +82,14 @@ class VoxelTraversalTest : public ::testing::Test {
     EXPECT_TRUE(tree.coordToKeyChecked(a.x(), a.y(), a.z(), ka));
     EXPECT_TRUE(tree.coordToKeyChecked(b.x(), b.y(), b.z(), kb));
     std::vector<Crossed> out;
-    const auto visit = [&](const octomap::OcTreeKey& k, double t_exit) {
+    const auto visit = [&](std::uint64_t p, double t_exit) {
+      const octomap::OcTreeKey k = PackedKeys::keyOf(p);
       out.push_back({{int(k[0]) - centre(), int(k[1]) - centre(), level ? 0 : int(k[2]) - centre()}, t_exit});
     };
     if (level) {
-      traverseLevel(tree, a, b, ka, kb, visit);
+      traverseLevel(tree, a, b, ka, kb, PackedKeys{}, visit);
     } else {
-      traverseVoxels(tree, a, b, ka, kb, visit);
+      traverseVoxels(tree, a, b, ka, kb, PackedKeys{}, visit);
     }
     return out;
   }
@@ -185,7 +186,7 @@ TEST_F(VoxelTraversalTest, AxisParallelSegments) {
 // set up from the ray's fractional cell coordinates, and stops where its visitor says so.
 TEST(WalkPlaneTest, CellsOfTravelAndStopping) {
   std::mt19937 rng(5);
-  // Cells on both sides of 0: the walk packs i and j into one index, negative ones too.
+  // Cells on both sides of 0 (the pass's rays start and end outside its grid too).
   std::uniform_real_distribution<double> u(-40.0, 40.0), angle(-M_PI, M_PI), len(0.0, 20.0);
   for (int n = 0; n < 300; ++n) {
     const double fx = u(rng), fy = u(rng), a = angle(rng), length = len(rng);  // in cells

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <cstring>
 #include <memory>
+#include <type_traits>
 
 #include "octo_slice_mapper/key_box.h"
 
@@ -47,17 +48,23 @@ class ScanEvidence {
   // Starts a scan whose voxels all lie in `box` and that adds at most `max_adds` pieces of
   // evidence; false (and nothing started) if the box is larger than kMaxCells.
   bool begin(const KeyBox& box, std::size_t max_adds);
+  // fn(rule) with the window's combining rule as a compile-time constant
+  // (std::integral_constant<EvidenceCombining, C>): callers that add per voxel decide the rule
+  // once per scan, not per add (per voxel the check was a tenth of an add's instructions).
+  template <typename Fn>
+  void withCombining(Fn&& fn) const {
+    if (combining_ == EvidenceCombining::kSum) {
+      fn(std::integral_constant<EvidenceCombining, EvidenceCombining::kSum>{});
+    } else {
+      fn(std::integral_constant<EvidenceCombining, EvidenceCombining::kOccupiedWins>{});
+    }
+  }
   // Evidence `value` (not zero: the caller filters out "no evidence") for `key`, which must lie in
   // the box given to begin().
   void add(const octomap::OcTreeKey& key, float value) {
-    if (combining_ == EvidenceCombining::kSum) {
-      addAs<EvidenceCombining::kSum>(key, value);
-    } else {
-      addAs<EvidenceCombining::kOccupiedWins>(key, value);
-    }
+    withCombining([&](auto rule) { addAs<decltype(rule)::value>(key, value); });
   }
-  // add() for a window that combines by C (the caller checks combining() once per scan: per voxel
-  // the check was a tenth of an add's instructions), at the voxel's index in the window.
+  // add() for a window that combines by C, at the key or at the voxel's index in the window.
   template <EvidenceCombining C>
   __attribute__((always_inline)) inline void addAs(const octomap::OcTreeKey& key, float value) {
     addAtAs<C>(indexOf(key), value);
@@ -86,11 +93,7 @@ class ScanEvidence {
   // first did, and leaves the window empty for the next scan.
   template <typename Fn>
   void drain(Fn&& fn) {
-    if (combining_ == EvidenceCombining::kSum) {
-      drainAs<EvidenceCombining::kSum>(fn);
-    } else {
-      drainAs<EvidenceCombining::kOccupiedWins>(fn);
-    }
+    withCombining([&](auto rule) { drainAs<decltype(rule)::value>(fn); });
   }
   // The window's size is virtual: of it, only pages scans reached are resident.
   std::size_t memoryBytes() const { return (capacity_ + touched_capacity_) * sizeof(std::uint32_t); }

@@ -217,18 +217,4 @@ inline void traverseLevel(const octomap::OcTree& tree, const Eigen::Vector3d& fr
   if (p != end) visit(end, 1.0);
 }
 
-// The same two walks visiting keys, visit(key, t_exit).
-template <typename Visit>
-inline void traverseVoxels(const octomap::OcTree& tree, const Eigen::Vector3d& from, const Eigen::Vector3d& to,
-                           const octomap::OcTreeKey& from_key, const octomap::OcTreeKey& to_key, Visit&& visit) {
-  traverseVoxels(tree, from, to, from_key, to_key, PackedKeys{},
-                 [&visit](std::uint64_t p, double t_exit) { visit(PackedKeys::keyOf(p), t_exit); });
-}
-template <typename Visit>
-inline void traverseLevel(const octomap::OcTree& tree, const Eigen::Vector3d& from, const Eigen::Vector3d& to,
-                          const octomap::OcTreeKey& from_key, const octomap::OcTreeKey& to_key, Visit&& visit) {
-  traverseLevel(tree, from, to, from_key, to_key, PackedKeys{},
-                [&visit](std::uint64_t p, double t_exit) { visit(PackedKeys::keyOf(p), t_exit); });
-}
-
 }  // namespace octo_slice_mapper

@@ -566,19 +566,14 @@ std::vector<KeyUpdate> ScanInserter::computeUpdates(const Eigen::Vector3d& origi
 // The evidence of the beams prepareBeams kept, into the window begun over their box.
 void ScanInserter::traceIntoWindow(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
                                    const std::vector<Beam>& beams, double half_angle) {
-  if (evidence_.combining() == EvidenceCombining::kSum) {  // scans
+  // The tracer instantiated per rule (scans sum, clouds by default keep the occupied).
+  evidence_.withCombining([&](auto rule) {
     traceBeams(
         origin, origin_key, beams, half_angle, evidence_,
         [this](ScanEvidence::Index index, float value)
-            __attribute__((always_inline)) { evidence_.addAtAs<EvidenceCombining::kSum>(index, value); },
+            __attribute__((always_inline)) { evidence_.addAtAs<decltype(rule)::value>(index, value); },
         /*shortcuts=*/true);
-  } else {  // clouds, by default
-    traceBeams(
-        origin, origin_key, beams, half_angle, evidence_,
-        [this](ScanEvidence::Index index, float value)
-            __attribute__((always_inline)) { evidence_.addAtAs<EvidenceCombining::kOccupiedWins>(index, value); },
-        /*shortcuts=*/true);
-  }
+  });
 }
 
 // The same combining as the window's, in a hash map: for a scan whose box is too large for one.
