@@ -12,13 +12,18 @@ session is checked:
 - every +inf is read as a no-return (none counted invalid), every -inf and NaN counted;
 - the saved map is octo_slice_map's from the same bag byte for byte (the node's tf, stamps and
   arrival order lose and add nothing), and it matches the simulator's ground truth (the drift of
-  the odometry allowed for: within 3 cells).
+  the odometry allowed for: within 3 cells);
+- replayed again with the node stopped for 150 ms every 0.7 s (a loaded VM), no scan it received is
+  given up.
 
 Usage: real_robot_replay_test.py RESULT_XML BIN_DIR  (JUnit, as the other tests write)."""
 import json
 import os
 import re
+import signal
 import sys
+import threading
+import time
 
 from ros_session import ros_session, run, run_cases
 
@@ -31,6 +36,24 @@ COMPARED = [".bt", ".ot", ".pgm"]
 # cell for cell (measured: precision 0.63, recall 0.87; at 1 cell 0.41 / 0.73). A mount yaw or tf
 # chain read wrongly smears every wall and drops both far lower.
 TOLERANCE, MIN_PRECISION, MIN_RECALL = "3", 0.55, 0.80
+
+
+def stall_node(port, stop_s, every_s, done):
+    """Stops the mapper_node of the roscore on `port` for `stop_s` every `every_s` until `done` is
+    set: the stalls of a loaded virtual machine (CI lost 17 scans to one, see below)."""
+    while not done.is_set():
+        for pid in (p for p in os.listdir("/proc") if p.isdigit()):
+            try:
+                cmdline = open(f"/proc/{pid}/cmdline", "rb").read()
+                environ = open(f"/proc/{pid}/environ", "rb").read()
+            except OSError:
+                continue
+            if b"octo_slice_mapper/mapper_node" in cmdline and re.search(rb"ROS_MASTER_URI=[^\0]*:%d/?\0" % port,
+                                                                          environ):
+                os.kill(int(pid), signal.SIGSTOP)
+                time.sleep(stop_s)
+                os.kill(int(pid), signal.SIGCONT)
+        done.wait(every_s)
 
 
 def counters(summary):
@@ -79,6 +102,27 @@ def cases(bin_dir, work):
         a, b = offline + suffix, os.path.join(work, "ros" + suffix)
         same = os.path.exists(a) and os.path.exists(b) and open(a, "rb").read() == open(b, "rb").read()
         yield f"map{suffix} as octo_slice_map's", same, f"{b} differs from {a}"
+    # The node stopped for 150 ms every 0.7 s (a loaded VM). Scans held back behind the ones from
+    # before tf used to be looked up only in their turn, after tf (10 s of data; at 20x, 0.5 s)
+    # had dropped their stamps: 8-24 skipped in 3 of 3 runs so, and CI lost 17 without stalls.
+    # Not compared with octo_slice_map's: ROS's tf queue (100 messages, 0.1 s at 20x) drops tf
+    # in a stall, and poses interpolated over the gap move a few cells. Nor is every scan counted:
+    # the scan subscriber's queue (50, 0.25 s) drops silently, out of the node's sight (0-3 seen).
+    stalled_log = os.path.join(work, "roslaunch_stalled.txt")
+    done = threading.Event()
+    staller = threading.Thread(target=stall_node, args=(port, 0.15, 0.7, done))
+    staller.start()
+    try:
+        code = run([devel_env, "roslaunch", "-p", str(port), "octo_slice_mapper", "replay.launch", "bag:=" + bag,
+                    "save:=stalled", "rate:=" + RATE, "params_file:=" + params], stalled_log, env)
+    finally:
+        done.set()
+        staller.join()
+    summary = [l for l in open(stalled_log).read().splitlines() if "session summary" in l]
+    c = counters(summary[0]) if summary else {}
+    yield ("a stalling node gives up no scan it received", not code and
+           c.get("scans_skipped") == wrote["scans_before_tf"] and c.get("scans_inserted", 0) >= expected - 10,
+           f"{wrote['scans_before_tf']} before tf, {expected} after: {summary[:1]} (see {stalled_log})")
     score_log = os.path.join(work, "compare.txt")
     run([os.path.join(bin_dir, "compare_maps"), os.path.join(work, "ros.yaml"), truth + ".yaml", "--tolerance",
          TOLERANCE], score_log)

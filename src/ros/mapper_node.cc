@@ -133,7 +133,15 @@ void MapperNode::connect(const std::string& topic, std::uint32_t queue, const ro
   input->filter = std::make_unique<tf2_ros::MessageFilter<M>>(input->subscriber, tf_buffer_, options_.frame_id, queue, nh_);
   input->filter->registerCallback(boost::function<void(const boost::shared_ptr<const M>&)>(
       [this, input](const boost::shared_ptr<const M>& msg) {
-        if (!input->waiting.delivered(msg)) return;  // timed out (and counted) or taken over already
+        // The pose now, while tf has it: the message may be held back for order longer than tf keeps it.
+        Eigen::Isometry3d pose;
+        std::string why;
+        if (!sensorPose(msg->header, &pose, &why)) {  // gone since the filter looked: not seen happen
+          if (input->waiting.dropped(msg)) skip("no_transform", why);
+          handleReady(input);
+          return;
+        }
+        if (!input->waiting.delivered(msg, pose)) return;  // timed out (and counted) or taken over already
         handleReady(input);
         if (input->waiting.held() > 0) {  // this one: an earlier message's transform is still missing
           std::lock_guard<std::mutex> lock(counters_mutex_);
@@ -142,7 +150,9 @@ void MapperNode::connect(const std::string& topic, std::uint32_t queue, const ro
       }));
   input->filter->registerFailureCallback(boost::function<void(const boost::shared_ptr<const M>&, tf2_ros::FilterFailureReason)>(
       [this, input](const boost::shared_ptr<const M>& msg, tf2_ros::FilterFailureReason reason) {
-        if (!input->waiting.dropped(msg)) return;  // counted when it timed out
+        // Pushed out of the filter's full queue, a message whose transform is there is taken over.
+        handleReady(input);
+        if (!input->waiting.dropped(msg)) return;  // counted when it timed out, or taken over
         handleReady(input);  // the ones it held back
         onTransformFailure(msg, reason);
         clearTfIfFromTheFuture(msg->header, reason);
@@ -181,15 +191,21 @@ bool MapperNode::transformThere(const boost::shared_ptr<const M>& msg) {
 }
 
 template <typename M>
+bool MapperNode::poseIfThere(const boost::shared_ptr<const M>& msg, Eigen::Isometry3d* pose) {
+  return transformThere(msg) && sensorPose(msg->header, pose, nullptr);
+}
+
+template <typename M>
 void MapperNode::handleReady(Input<M>* input) {
   std::size_t taken_over = 0;
   const auto ready = input->waiting.takeReady(
-      [this](const boost::shared_ptr<const M>& msg) { return transformThere(msg); }, &taken_over);
+      [this](const boost::shared_ptr<const M>& msg, Eigen::Isometry3d* pose) { return poseIfThere(msg, pose); },
+      &taken_over);
   if (taken_over > 0) {
     std::lock_guard<std::mutex> lock(counters_mutex_);
     counters_.scans_taken_over += taken_over;
   }
-  for (const boost::shared_ptr<const M>& msg : ready) insert(msg);
+  for (const auto& r : ready) insert(r.msg, r.pose);
 }
 
 // Messages still waiting for their transform after ~transform_timeout are given up and counted
@@ -241,12 +257,12 @@ void MapperNode::clearTfIfFromTheFuture(const std_msgs::Header& header, tf2_ros:
            header.stamp.toSec());
 }
 
-bool MapperNode::sensorPose(const std_msgs::Header& header, Eigen::Isometry3d* pose) {
+bool MapperNode::sensorPose(const std_msgs::Header& header, Eigen::Isometry3d* pose, std::string* why) {
   try {
     *pose = tf2::transformToEigen(tf_buffer_.lookupTransform(options_.frame_id, header.frame_id, header.stamp));
     return true;
   } catch (const tf2::TransformException& e) {
-    skip("no_transform", e.what());
+    if (why) *why = e.what();
     return false;
   }
 }
@@ -273,10 +289,8 @@ void MapperNode::checkTimeJump(const ros::Time& stamp) {
 }
 
 template <typename M>
-void MapperNode::insert(const boost::shared_ptr<const M>& msg) {
+void MapperNode::insert(const boost::shared_ptr<const M>& msg, const Eigen::Isometry3d& pose) {
   if (stampedZero(msg->header)) return;
-  Eigen::Isometry3d pose;
-  if (!sensorPose(msg->header, &pose)) return;
   checkTimeJump(msg->header.stamp);
   typename Kind<M>::Core core;
   const ScanRejection rejection = Kind<M>::toCore(*msg, pose, &core);

@@ -43,7 +43,7 @@ class MapperNode {
   struct Input {
     message_filters::Subscriber<M> subscriber;
     std::unique_ptr<tf2_ros::MessageFilter<M>> filter;
-    PendingMessages<M> waiting;
+    PendingMessages<M, Eigen::Isometry3d> waiting;
   };
   template <typename M>
   void connect(const std::string& topic, std::uint32_t queue, const ros::TransportHints& hints, Input<M>* input);
@@ -51,16 +51,20 @@ class MapperNode {
   template <typename M>
   void handleReady(Input<M>* input);
   template <typename M>
-  void insert(const boost::shared_ptr<const M>& msg);
+  void insert(const boost::shared_ptr<const M>& msg, const Eigen::Isometry3d& pose);
   template <typename M>
   bool transformThere(const boost::shared_ptr<const M>& msg);
+  // The sensor's pose at the message's stamp, if tf has it (without the cost of an exception if not).
+  template <typename M>
+  bool poseIfThere(const boost::shared_ptr<const M>& msg, Eigen::Isometry3d* pose);
   template <typename M>
   void expireWaiting(Input<M>* input);
   template <typename M>
   void onTransformFailure(const boost::shared_ptr<const M>& msg, tf2_ros::FilterFailureReason reason);
   // A current message "older than the tf buffer": the clock jumped back unnoticed.
   void clearTfIfFromTheFuture(const std_msgs::Header& header, tf2_ros::FilterFailureReason reason);
-  bool sensorPose(const std_msgs::Header& header, Eigen::Isometry3d* pose);
+  // False (and `why`) when tf has no transform at the header's stamp.
+  bool sensorPose(const std_msgs::Header& header, Eigen::Isometry3d* pose, std::string* why);
   void skip(const std::string& reason, const std::string& message);
   // A message stamped 0 is skipped as zero_stamp (true).
   bool stampedZero(const std_msgs::Header& header);

@@ -12,6 +12,10 @@
 //   in its queue until pushed out (seen replaying Radish logs: 1 scan in a few hundred). So a
 //   waiting message whose transform is there is taken over: handed out as if delivered, and its
 //   delivery, should it come after all, ignored.
+// - Keep the transform. A message held back for order can wait longer than tf keeps data (10 s of
+//   stamps; at 20x replay a 0.5 s wait is 10 s): its pose is therefore taken when its transform is
+//   known to be there (delivered or taken over) and kept with it (CI lost 17 scans held behind
+//   the scans from before the first tf, their tf data dropped by the time their turn came).
 //
 // Used from the node's (single-threaded) global queue only.
 #pragma once
@@ -27,10 +31,14 @@
 namespace octo_slice_mapper {
 namespace ros_adapter {
 
-template <typename M>
+template <typename M, typename Pose>
 class PendingMessages {
  public:
   using Ptr = boost::shared_ptr<const M>;
+  struct Ready {
+    Ptr msg;
+    Pose pose;  // the sensor's pose at the message's stamp
+  };
 
   // Each message once: a recorded one is held on to, so no new message can have its address.
   void arrived(const Ptr& msg, const ros::WallTime& now) {
@@ -38,34 +46,45 @@ class PendingMessages {
     entries_[next_++] = {msg, now, State::kWaiting};
   }
 
-  // The filter delivered `msg`. False when that is old news: it timed out (and was counted then)
-  // or was taken over. Otherwise takeReady() hands it out in its turn.
-  bool delivered(const Ptr& msg) { return letGo(msg, /*delivered=*/true); }
+  // The filter delivered `msg`, whose pose is `pose`. False when that is old news: it timed out
+  // (and was counted then) or was taken over. Otherwise takeReady() hands it out in its turn.
+  bool delivered(const Ptr& msg, const Pose& pose) { return letGo(msg, &pose); }
 
   // The filter dropped `msg`. True when it is to be counted as skipped; false when it timed out
-  // (counted then) or was taken over. Either way, it no longer holds later messages back.
-  bool dropped(const Ptr& msg) { return letGo(msg, /*delivered=*/false); }
+  // (counted then) or was taken over (then still handed out in its turn). Either way, it no longer
+  // holds later messages back.
+  bool dropped(const Ptr& msg) { return letGo(msg, nullptr); }
 
-  // The messages to handle now, oldest arrival first, each returned once: those the filter
-  // delivered and those still waiting whose transform is there (`transform_there`), up to the first
-  // one whose transform is missing. `taken_over` (if given) counts the latter.
-  template <typename Pred>
-  std::vector<Ptr> takeReady(Pred transform_there, std::size_t* taken_over = nullptr) {
-    std::vector<Ptr> ready;
+  // The messages to handle now with their poses, oldest arrival first, each returned once: those
+  // the filter delivered and those still waiting whose pose is there (`pose_of(msg, &pose)` is
+  // true), up to the first one whose pose is missing. A waiting message behind that one whose pose
+  // is there is taken over all the same, and held: the filter may push it out of its full queue
+  // before its turn. `taken_over` (if given) counts the messages taken over.
+  template <typename PoseOf>
+  std::vector<Ready> takeReady(PoseOf pose_of, std::size_t* taken_over = nullptr) {
+    std::vector<Ready> ready;
+    bool blocked = false;
     for (auto it = entries_.begin(); it != entries_.end();) {
       Entry& e = it->second;
       if (e.state == State::kWaiting) {
-        if (!transform_there(e.msg)) break;
-        ready.push_back(e.msg);
-        e.state = State::kHandedOut;  // kept until the filter lets go of it
+        if (!pose_of(e.msg, &e.pose)) {
+          blocked = true;
+          ++it;
+          continue;
+        }
+        e.state = State::kTakenOver;
         if (taken_over) ++*taken_over;
+      }
+      if (blocked || (e.state != State::kTakenOver && e.state != State::kReady)) {
+        ++it;  // held back; or timed out or handed out, still in the filter: holds nothing back
+      } else if (e.state == State::kTakenOver) {
+        ready.push_back({e.msg, e.pose});
+        e.state = State::kHandedOut;  // kept until the filter lets go of it
         ++it;
-      } else if (e.state == State::kReady) {
-        ready.push_back(e.msg);
+      } else {
+        ready.push_back({e.msg, e.pose});
         order_.erase(e.msg.get());
         it = entries_.erase(it);
-      } else {
-        ++it;  // timed out or handed out, still in the filter: holds nothing back
       }
     }
     return ready;
@@ -91,29 +110,34 @@ class PendingMessages {
   // Still waiting for the filter.
   std::size_t waiting() const { return count(State::kWaiting); }
   // Ready, but held back behind an earlier one whose transform is missing.
-  std::size_t held() const { return count(State::kReady); }
+  std::size_t held() const { return count(State::kReady) + count(State::kTakenOver); }
 
  private:
-  // kWaiting: in the filter; kReady: delivered, to be handed out; kTimedOut: given up (and
-  // counted), still in the filter; kHandedOut: taken over and handed out, still in the filter.
-  enum class State { kWaiting, kReady, kTimedOut, kHandedOut };
+  // kWaiting: in the filter; kReady: delivered, to be handed out; kTakenOver: its transform is
+  // there, still in the filter, to be handed out; kTimedOut: given up (and counted), still in the
+  // filter; kHandedOut: taken over and handed out, still in the filter.
+  enum class State { kWaiting, kReady, kTakenOver, kTimedOut, kHandedOut };
   struct Entry {
     Ptr msg;
     ros::WallTime arrived;
     State state;
+    Pose pose{};  // set when delivered or taken over
   };
 
-  // The filter delivered or dropped `msg`. True when that is news (a waiting message): a delivery
-  // to hand out, or a drop to count.
-  bool letGo(const Ptr& msg, bool delivered) {
+  // The filter delivered `msg` (with its pose) or dropped it (`pose` null). True when that is news
+  // (a waiting message): a delivery to hand out, or a drop to count.
+  bool letGo(const Ptr& msg, const Pose* pose) {
     const auto found = order_.find(msg.get());
-    if (found == order_.end()) return delivered;  // not seen arriving: can't happen
-    const auto it = entries_.find(found->second);
-    const bool news = it->second.state == State::kWaiting;
-    if (news && delivered) {
-      it->second.state = State::kReady;
-    } else if (it->second.state != State::kReady) {  // (a second word on a delivered one: ignored)
-      entries_.erase(it);
+    if (found == order_.end()) return pose != nullptr;  // not seen arriving: can't happen
+    Entry& e = entries_.find(found->second)->second;
+    const bool news = e.state == State::kWaiting;
+    if (news && pose) {
+      e.state = State::kReady;
+      e.pose = *pose;
+    } else if (e.state == State::kTakenOver) {
+      e.state = State::kReady;  // out of the filter, still to be handed out with the pose it has
+    } else if (e.state != State::kReady) {  // (a second word on a delivered one: ignored)
+      entries_.erase(found->second);
       order_.erase(found);
     }
     return news;
