@@ -532,9 +532,13 @@ TEST_F(MapperNodeTest, SaveAndOptimizeDoNotStallScanInsertion) {
   feeder.join();
   diagnostics_.clear();  // wait for a report made after the calls
   ASSERT_TRUE(waitFor([this] { return diagnostic("longest_service_lock_ms") > 0.0; }, 5.0)) << "no diagnostics";
-  std::printf("[ busy services ] longest service lock %.2f ms, longest scan wait %.2f ms\n",
-              diagnostic("longest_service_lock_ms"), diagnostic("max_insert_wait_ms"));
-  EXPECT_LT(diagnostic("longest_service_lock_ms"), 50.0);
+  std::printf("[ busy services ] longest service lock %.2f ms (%.2f ms CPU), longest scan wait %.2f ms\n",
+              diagnostic("longest_service_lock_ms"), diagnostic("longest_service_lock_cpu_ms"),
+              diagnostic("max_insert_wait_ms"));
+  // The work under the lock, in CPU time: its wall time also counts the machine's stalls (once
+  // 61.3 ms in CI, where it is 1-2 ms, while no scan waited: max_insert_wait_ms was 0).
+  EXPECT_LT(diagnostic("longest_service_lock_cpu_ms"), 50.0);
+  EXPECT_GT(diagnostic("longest_service_lock_cpu_ms"), 0.0) << "the services' work under the lock is timed";
   EXPECT_LT(diagnostic("max_insert_wait_ms"), 50.0);
 }
 

@@ -82,6 +82,9 @@ class MappingSession {
   std::optional<OnlineOptimizerInput> onlinePassInput();
   // The longest a save, pass, reset or input copy held the lock (ms): scans waited that long.
   double longestLockMs() const;
+  // The most CPU time (ms) the thread holding the lock spent in one hold: the work done under it,
+  // without the time the machine gave that thread no core.
+  double longestLockCpuMs() const;
 
   // What preparing clouds outside the map's lock holds (0 before the first cloud): a second
   // inserter's evidence window, besides the mapper's own.
@@ -115,6 +118,7 @@ class MappingSession {
   double newest_stamp_ = 0.0;  // of the scans inserted
   std::uint64_t options_version_ = 0;  // counts reconfigure()s
   double longest_lock_ms_ = 0.0;
+  double longest_lock_cpu_ms_ = 0.0;
   std::uint64_t generation_ = 0;  // counts reset()s and load()s: the scan store began anew
 
   std::mutex cloud_mutex_;  // one cloud prepared at a time; guards the preparer; taken before mutex_

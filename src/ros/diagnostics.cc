@@ -68,6 +68,8 @@ diagnostic_msgs::DiagnosticArray toDiagnostics(const NodeCounters& c, std::uint6
   add("max_insert_wait_ms", ms);
   std::snprintf(ms, sizeof(ms), "%.3f", c.longest_service_lock_ms);
   add("longest_service_lock_ms", ms);
+  std::snprintf(ms, sizeof(ms), "%.3f", c.longest_service_lock_cpu_ms);
+  add("longest_service_lock_cpu_ms", ms);
   add("octree_nodes", std::to_string(c.octree_nodes));
   add("unflushed_voxels", std::to_string(c.unflushed_voxels));
   add("known_cells", std::to_string(c.known_cells));

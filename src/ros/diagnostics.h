@@ -31,6 +31,7 @@ struct NodeCounters {
   // service held it: both must stay under one scan period for saving not to stall mapping.
   double max_insert_wait_ms = 0.0;
   double longest_service_lock_ms = 0.0;
+  double longest_service_lock_cpu_ms = 0.0;
   // Octree nodes, inner ones included, as of the last flush (the session summary counts leaves),
   // and the changed voxels the insertion cache holds that the octree does not have yet.
   std::size_t octree_nodes = 0, unflushed_voxels = 0;

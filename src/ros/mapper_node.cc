@@ -2,11 +2,10 @@
 
 #include <tf2_eigen/tf2_eigen.h>
 
-#include <time.h>
-
 #include <cstdio>
 
 #include "octo_slice_mapper/map_io.h"
+#include "octo_slice_mapper/thread_cpu_time.h"
 #include "ros/laser_scan_conversion.h"
 #include "ros/point_cloud_conversion.h"
 
@@ -43,14 +42,6 @@ struct Kind<sensor_msgs::PointCloud2> {
     return toCoreCloud(m, pose, out);
   }
 };
-
-// CPU time of the calling thread: against the wall time of an insertion, it tells time spent
-// working from time spent waiting for a core.
-double threadCpuSeconds() {
-  timespec t{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-  return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
-}
 
 SessionOptions sessionOptionsOf(const NodeOptions& o) {
   SessionOptions s;
@@ -337,6 +328,7 @@ void MapperNode::publishDiagnostics(const ros::WallTimerEvent&) {
     c.revisit_scans_not_kept = mapper.scanStore().skippedAsRevisit();
   });
   c.longest_service_lock_ms = session_.longestLockMs();
+  c.longest_service_lock_cpu_ms = session_.longestLockCpuMs();
   c.waiting_for_tf = scans_.waiting.waiting();  // this timer runs on the same queue as the scans
   if (online_pass_) {
     const OnlinePassStats online = online_pass_->stats();
