@@ -45,7 +45,7 @@ const std::vector<OptionSpec<NodeOptions>>& nodeOptionTable() {
       {"publish_markers", "", "publish ~occupied_cells", [](O& o) -> OptionField { return &o.publish_markers; }},
       {"transform_timeout", "s", "how long a message may wait for its transform",
        [](O& o) -> OptionField { return &o.transform_timeout; }},
-      {"scan_queue_size", "", "scans held while waiting for tf", [](O& o) -> OptionField { return &o.scan_queue_size; }},
+      {"scan_queue_size", "", "scans queued for the node and held while waiting for tf (a full queue drops the oldest)", [](O& o) -> OptionField { return &o.scan_queue_size; }},
       {"map_file", "", ".bt/.ot to resume from", [](O& o) -> OptionField { return &o.map_file; }},
       {"save_on_shutdown", "", "prefix written when the node stops", [](O& o) -> OptionField { return &o.save_on_shutdown; }},
       {"maps_dir", "", "where ~save_map writes", [](O& o) -> OptionField { return &o.maps_dir; }},
