@@ -39,7 +39,7 @@ TOLERANCE, MIN_PRECISION, MIN_RECALL = "3", 0.55, 0.80
 
 def stall_node(port, stop_s, every_s, done):
     """Stops the mapper_node of the roscore on `port` for `stop_s` every `every_s` until `done` is
-    set: the stalls of a loaded virtual machine (CI lost 17 scans to one, see below)."""
+    set: the stalls of a loaded virtual machine."""
     while not done.is_set():
         for pid in (p for p in os.listdir("/proc") if p.isdigit()):
             try:
@@ -103,7 +103,7 @@ def cases(bin_dir, work):
         yield f"map{suffix} as octo_slice_map's", same, f"{b} differs from {a}"
     # The node stopped for 150 ms every 0.7 s (a loaded VM). Scans held back behind the ones from
     # before tf used to be looked up only in their turn, after tf (10 s of data; at 20x, 0.5 s)
-    # had dropped their stamps: 8-24 skipped in 3 of 3 runs so, and CI lost 17 without stalls.
+    # had dropped their stamps: 8-24 skipped in 3 of 3 runs so (CI lost 17 without stalls made).
     # Every scan is inserted: ROS's scan queue (scan_queue_size, 200: 1 s at 20x) outlasts a stall;
     # at 50 it dropped 0-3 scans silently, out of the node's sight. The map is not compared with
     # octo_slice_map's: ROS's tf queue (100 messages, 0.1 s at 20x) drops tf in a stall, and poses
