@@ -66,7 +66,7 @@ def cases(bin_dir, work):
         if code or not summary:
             yield name, False, f"roslaunch ended with {code!r} (summary written: {bool(summary)}; see {launch_log})"
             continue
-        if f"scans_inserted={SCANS} scans_skipped=0 time_jumps_back=0" not in summary[0]:
+        if f"scans_inserted={SCANS} scans_skipped=0 scans_missed=0 time_jumps_back=0" not in summary[0]:
             yield name, False, "the session did not insert every scan, in order: " + summary[0].strip()
             continue
         # Saved by the player, which waits for it, not on shutdown, where roslaunch kills the mapper

@@ -13,7 +13,9 @@ session is checked:
 - the saved map is octo_slice_map's from the same bag byte for byte (the node's tf, stamps and
   arrival order lose and add nothing), and it matches the simulator's ground truth (the drift of
   the odometry allowed for: within 3 cells);
-- replayed again with the node stopped for 150 ms every 0.7 s (a loaded VM), no scan is lost.
+- no scan missed: none dropped by ROS's queue, seen as a gap in header.seq;
+- replayed again with the node stopped for 150 ms every 0.7 s (a loaded VM), no scan is lost; and
+  with a queue of 5 under the same stalls, the scans ROS drops are all reported as missed.
 
 Usage: real_robot_replay_test.py RESULT_XML BIN_DIR  (JUnit, as the other tests write)."""
 import json
@@ -91,6 +93,7 @@ def cases(bin_dir, work):
            c.get("scans_skipped") == wrote["scans_before_tf"] == untransformed,
            f"{wrote['scans_before_tf']} scans came before tf: {summary[0].strip()}")
     yield ("no time jump seen in late or early scans", c.get("time_jumps_back") == 0, summary[0].strip())
+    yield ("no scan missed (no gap in header.seq)", c.get("scans_missed") == 0, summary[0].strip())
     # The README: +inf is a no-return, -inf "too close" is counted as `inf` (no update), NaN as `nan`.
     yield ("+inf read as no-return, none invalid",
            c.get("no_return") == wrote["plus_inf"] and wrote["plus_inf"] > 1000,
@@ -108,21 +111,36 @@ def cases(bin_dir, work):
     # at 50 it dropped 0-3 scans silently, out of the node's sight. The map is not compared with
     # octo_slice_map's: ROS's tf queue (100 messages, 0.1 s at 20x) drops tf in a stall, and poses
     # interpolated over the gap move a few cells.
-    stalled_log = os.path.join(work, "roslaunch_stalled.txt")
-    done = threading.Event()
-    staller = threading.Thread(target=stall_node, args=(port, 0.15, 0.7, done))
-    staller.start()
-    try:
-        code = run([devel_env, "roslaunch", "-p", str(port), "octo_slice_mapper", "replay.launch", "bag:=" + bag,
-                    "save:=stalled", "rate:=" + RATE, "params_file:=" + params], stalled_log, env)
-    finally:
-        done.set()
-        staller.join()
-    summary = [l for l in open(stalled_log).read().splitlines() if "session summary" in l]
-    c = counters(summary[0]) if summary else {}
-    yield ("a stalling node loses no scan", not code and
-           c.get("scans_skipped") == wrote["scans_before_tf"] and c.get("scans_inserted") == expected,
-           f"{wrote['scans_before_tf']} before tf, {expected} after: {summary[:1]} (see {stalled_log})")
+    def stalled_replay(name, params_file):
+        log = os.path.join(work, f"roslaunch_{name}.txt")
+        done = threading.Event()
+        staller = threading.Thread(target=stall_node, args=(port, 0.15, 0.7, done))
+        staller.start()
+        try:
+            code = run([devel_env, "roslaunch", "-p", str(port), "octo_slice_mapper", "replay.launch", "bag:=" + bag,
+                        "save:=" + name, "rate:=" + RATE, "params_file:=" + params_file], log, env)
+        finally:
+            done.set()
+            staller.join()
+        summary = [l for l in open(log).read().splitlines() if "session summary" in l]
+        return code, (counters(summary[0]) if summary else {}), f"{summary[:1]} (see {log})"
+
+    code, c, said = stalled_replay("stalled", params)
+    yield ("a stalling node loses no scan", not code and c.get("scans_skipped") == wrote["scans_before_tf"] and
+           c.get("scans_inserted") == expected and c.get("scans_missed") == 0,
+           f"{wrote['scans_before_tf']} before tf, {expected} after: {said}")
+    # With a queue of 5 (0.025 s at 20x) the stalls make ROS drop scans: each is reported as
+    # missed (a gap in header.seq), so that the scans of the bag are accounted for: all but those
+    # dropped before the first one received, which no gap shows (a stall while the node connects:
+    # up to 150 ms of scans at 20x; 6 seen).
+    small_queue = os.path.join(work, "small_queue.yaml")
+    with open(small_queue, "w") as f:
+        f.write(open(params).read() + "scan_queue_size: 5\n")
+    code, c, said = stalled_replay("small_queue", small_queue)
+    accounted = c.get("scans_inserted", 0) + c.get("scans_skipped", 0) + c.get("scans_missed", 0)
+    yield ("scans ROS dropped are reported as missed", not code and c.get("scans_missed", 0) > 0 and
+           wrote["scans"] - 30 <= accounted <= wrote["scans"],
+           f"{wrote['scans']} scans in the bag, {accounted} accounted for: {said}")
     score_log = os.path.join(work, "compare.txt")
     run([os.path.join(bin_dir, "compare_maps"), os.path.join(work, "ros.yaml"), truth + ".yaml", "--tolerance",
          TOLERANCE], score_log)

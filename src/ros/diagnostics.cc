@@ -24,9 +24,11 @@ bool SkipLog::shouldLog(const std::string& reason, double now) {
 std::string sessionSummary(const NodeCounters& c, const MapFigures& map, double wall_seconds) {
   std::ostringstream out;
   out << "scans_inserted=" << c.scans_inserted << " scans_skipped=" << c.skippedTotal()
+      << " scans_missed=" << c.scans_missed
       << " time_jumps_back=" << c.time_jumps_back << " scans_held_for_order=" << c.scans_held_for_order
       << " scans_taken_over=" << c.scans_taken_over << " clouds_inserted=" << c.clouds_inserted;
   for (const auto& kv : c.skipped) out << " skipped_" << kv.first << '=' << kv.second;
+  if (c.clouds_missed) out << " clouds_missed=" << c.clouds_missed;
   out << " readings: " << map.readings << " beams_outside_octree=" << map.beams_outside_octree;
   if (!map.cloud_points.empty()) out << " cloud_points: " << map.cloud_points;
   out << " voxels=" << map.voxels << " known_cells=" << map.known_cells;
@@ -58,6 +60,8 @@ diagnostic_msgs::DiagnosticArray toDiagnostics(const NodeCounters& c, std::uint6
   add("scans_skipped", std::to_string(c.skippedTotal()));
   add("clouds_received", std::to_string(c.clouds_received));
   add("clouds_inserted", std::to_string(c.clouds_inserted));
+  add("scans_missed", std::to_string(c.scans_missed));
+  add("clouds_missed", std::to_string(c.clouds_missed));
   for (const auto& kv : c.skipped) add("skipped_" + kv.first, std::to_string(kv.second));
   add("waiting_for_tf", std::to_string(c.waiting_for_tf));
   add("time_jumps_back", std::to_string(c.time_jumps_back));

@@ -16,6 +16,8 @@ struct NodeCounters {
   std::uint64_t scans_received = 0;  // by the subscriber, before waiting for tf
   std::uint64_t scans_inserted = 0;
   std::uint64_t clouds_received = 0, clouds_inserted = 0;  // cloud_in; their skips are skipped_cloud_*
+  // Never received: gaps in their publishers' header.seq (ROS dropped them from a full queue).
+  std::uint64_t scans_missed = 0, clouds_missed = 0;
   std::map<std::string, std::uint64_t> skipped;  // whole scans dropped, per reason
   std::uint64_t time_jumps_back = 0;
   // Delivered by the tf filter ahead of an earlier scan, and held until that one's turn.

@@ -22,6 +22,7 @@ struct Kind<sensor_msgs::LaserScan> {
   static constexpr const char* kName = "scan";
   static constexpr const char* kInvalid = "invalid_scan";
   static std::uint64_t& received(NodeCounters& c) { return c.scans_received; }
+  static std::uint64_t& missed(NodeCounters& c) { return c.scans_missed; }
   static std::uint64_t& inserted(NodeCounters& c) { return c.scans_inserted; }
   static double& seconds(NodeCounters& c) { return c.scan_insert_seconds; }
   static double& cpuSeconds(NodeCounters& c) { return c.scan_insert_cpu_seconds; }
@@ -35,6 +36,7 @@ struct Kind<sensor_msgs::PointCloud2> {
   static constexpr const char* kName = "point cloud";
   static constexpr const char* kInvalid = "invalid_cloud";
   static std::uint64_t& received(NodeCounters& c) { return c.clouds_received; }
+  static std::uint64_t& missed(NodeCounters& c) { return c.clouds_missed; }
   static std::uint64_t& inserted(NodeCounters& c) { return c.clouds_inserted; }
   static double& seconds(NodeCounters& c) { return c.cloud_insert_seconds; }
   static double& cpuSeconds(NodeCounters& c) { return c.cloud_insert_cpu_seconds; }
@@ -113,11 +115,19 @@ void MapperNode::connect(const std::string& topic, std::uint32_t queue, const ro
                          Input<M>* input) {
   input->subscriber.subscribe(nh_, topic, queue, hints);
   // Registered before the filter connects, so a message is recorded before the filter can answer.
-  input->subscriber.registerCallback(boost::function<void(const boost::shared_ptr<const M>&)>(
-      [this, input](const boost::shared_ptr<const M>& msg) {
+  input->subscriber.registerCallback(boost::function<void(const ros::MessageEvent<M const>&)>(
+      [this, input](const ros::MessageEvent<M const>& event) {
+        const boost::shared_ptr<const M>& msg = event.getConstMessage();
         input->waiting.arrived(msg, ros::WallTime::now());
+        const std::uint64_t missed = input->sequence.add(event.getPublisherName(), msg->header.seq);
+        if (missed > 0) {
+          ROS_WARN_THROTTLE(10.0, "%llu %s(s) from %s never reached the mapper (a gap in header.seq): ROS drops the "
+                            "oldest of a full queue; raise ~scan_queue_size or replay slower",
+                            static_cast<unsigned long long>(missed), Kind<M>::kName, event.getPublisherName().c_str());
+        }
         std::lock_guard<std::mutex> lock(counters_mutex_);
         Kind<M>::received(counters_)++;
+        Kind<M>::missed(counters_) = input->sequence.missed();  // (a late one is taken back)
       }));
   // No tolerance: a message is handled as soon as its transform exists (a tolerance would hold
   // every one back until tf runs that far ahead of it).

@@ -26,6 +26,7 @@
 #include "ros/node_parameters.h"
 #include "ros/online_pass.h"
 #include "ros/pending_messages.h"
+#include "ros/sequence_gaps.h"
 
 namespace octo_slice_mapper {
 namespace ros_adapter {
@@ -44,6 +45,7 @@ class MapperNode {
     message_filters::Subscriber<M> subscriber;
     std::unique_ptr<tf2_ros::MessageFilter<M>> filter;
     PendingMessages<M, Eigen::Isometry3d> waiting;
+    SequenceGaps sequence;  // what never arrived
   };
   template <typename M>
   void connect(const std::string& topic, std::uint32_t queue, const ros::TransportHints& hints, Input<M>* input);
