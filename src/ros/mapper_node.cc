@@ -122,7 +122,7 @@ void MapperNode::connect(const std::string& topic, std::uint32_t queue, const ro
         const std::uint64_t missed = input->sequence.add(event.getPublisherName(), msg->header.seq);
         if (missed > 0) {
           ROS_WARN_THROTTLE(10.0, "%llu %s(s) from %s never reached the mapper (a gap in header.seq): ROS drops the "
-                            "oldest of a full queue; raise ~scan_queue_size or replay slower",
+                            "oldest of a full queue; replay slower (or, for scans, raise ~scan_queue_size)",
                             static_cast<unsigned long long>(missed), Kind<M>::kName, event.getPublisherName().c_str());
         }
         std::lock_guard<std::mutex> lock(counters_mutex_);
