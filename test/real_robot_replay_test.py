@@ -57,6 +57,26 @@ def stall_node(port, stop_s, every_s, done):
         done.wait(every_s)
 
 
+def replay(session, bag, name, params_file, log, stall):
+    """replay.launch of `bag` at RATE, saving as `name`; with `stall`, the node stopped for 150 ms
+    every 0.7 s meanwhile. session = (port, env, devel_env). Returns (exit code, session summary
+    line or "")."""
+    port, env, devel_env = session
+    done = threading.Event()
+    staller = threading.Thread(target=stall_node, args=(port, 0.15, 0.7, done)) if stall else None
+    if staller:
+        staller.start()
+    try:
+        code = run([devel_env, "roslaunch", "-p", str(port), "octo_slice_mapper", "replay.launch", "bag:=" + bag,
+                    "save:=" + name, "rate:=" + RATE, "params_file:=" + params_file], log, env)
+    finally:
+        done.set()
+        if staller:
+            staller.join()
+    summary = [l for l in open(log).read().splitlines() if "session summary" in l]
+    return code, summary[0] if summary else ""
+
+
 def counters(summary):
     return {k: int(v) for k, v in re.findall(r"(\w+)=(\d+)(?:\s|$)", summary)}
 
@@ -74,32 +94,30 @@ def cases(bin_dir, work):
         yield "offline", False, f"octo_slice_map failed (see {offline_log})"
         return
     params, port, env, devel_env = ros_session(bin_dir, work, "")
+    session = (port, env, devel_env)
     launch_log = os.path.join(work, "roslaunch.txt")
-    code = run([devel_env, "roslaunch", "-p", str(port), "octo_slice_mapper", "replay.launch", "bag:=" + bag,
-                "save:=ros", "rate:=" + RATE, "params_file:=" + params], launch_log, env)
-    text = open(launch_log).read()
-    summary = [l for l in text.splitlines() if "session summary" in l]
+    code, summary = replay(session, bag, "ros", params, launch_log, stall=False)
     if code or not summary:
         yield "replay", False, f"roslaunch ended with {code!r} (summary written: {bool(summary)}; see {launch_log})"
         return
-    c = counters(summary[0])
+    c = counters(summary)
     expected = wrote["scans"] - wrote["scans_before_tf"]
     yield ("every scan with a transform inserted", c.get("scans_inserted") == expected,
-           f"inserted {c.get('scans_inserted')} of {expected}: {summary[0].strip()}")
+           f"inserted {c.get('scans_inserted')} of {expected}: {summary.strip()}")
     # Told apart by timing only: the tf filter gives a scan up (no_transform) or it waits out
     # transform_timeout first; both say "no transform at its stamp".
     untransformed = c.get("skipped_no_transform", 0) + c.get("skipped_transform_timeout", 0)
     yield ("only the scans before the first tf skipped, for want of a transform",
            c.get("scans_skipped") == wrote["scans_before_tf"] == untransformed,
-           f"{wrote['scans_before_tf']} scans came before tf: {summary[0].strip()}")
-    yield ("no time jump seen in late or early scans", c.get("time_jumps_back") == 0, summary[0].strip())
-    yield ("no scan missed (no gap in header.seq)", c.get("scans_missed") == 0, summary[0].strip())
+           f"{wrote['scans_before_tf']} scans came before tf: {summary.strip()}")
+    yield ("no time jump seen in late or early scans", c.get("time_jumps_back") == 0, summary.strip())
+    yield ("no scan missed (no gap in header.seq)", c.get("scans_missed") == 0, summary.strip())
     # The README: +inf is a no-return, -inf "too close" is counted as `inf` (no update), NaN as `nan`.
     yield ("+inf read as no-return, none invalid",
            c.get("no_return") == wrote["plus_inf"] and wrote["plus_inf"] > 1000,
-           f"the bag's scans after tf hold {wrote['plus_inf']} +inf: {summary[0].strip()}")
+           f"the bag's scans after tf hold {wrote['plus_inf']} +inf: {summary.strip()}")
     yield ("-inf and NaN counted", c.get("inf") == wrote["minus_inf"] and c.get("nan") == wrote["nan"],
-           f"{wrote['minus_inf']} -inf, {wrote['nan']} NaN: {summary[0].strip()}")
+           f"{wrote['minus_inf']} -inf, {wrote['nan']} NaN: {summary.strip()}")
     for suffix in COMPARED:
         a, b = offline + suffix, os.path.join(work, "ros" + suffix)
         same = os.path.exists(a) and os.path.exists(b) and open(a, "rb").read() == open(b, "rb").read()
@@ -113,17 +131,8 @@ def cases(bin_dir, work):
     # interpolated over the gap move a few cells.
     def stalled_replay(name, params_file):
         log = os.path.join(work, f"roslaunch_{name}.txt")
-        done = threading.Event()
-        staller = threading.Thread(target=stall_node, args=(port, 0.15, 0.7, done))
-        staller.start()
-        try:
-            code = run([devel_env, "roslaunch", "-p", str(port), "octo_slice_mapper", "replay.launch", "bag:=" + bag,
-                        "save:=" + name, "rate:=" + RATE, "params_file:=" + params_file], log, env)
-        finally:
-            done.set()
-            staller.join()
-        summary = [l for l in open(log).read().splitlines() if "session summary" in l]
-        return code, (counters(summary[0]) if summary else {}), f"{summary[:1]} (see {log})"
+        code, summary = replay(session, bag, name, params_file, log, stall=True)
+        return code, counters(summary), f"{summary.strip()!r} (see {log})"
 
     code, c, said = stalled_replay("stalled", params)
     yield ("a stalling node loses no scan", not code and c.get("scans_skipped") == wrote["scans_before_tf"] and
