@@ -13,6 +13,10 @@
 //         end voxel); "per point": the same with one ray per point (the path before issue 22);
 //   octomap insertPointCloud, and insertPointCloud(..., discretize = true) (one ray per end
 //         voxel), given the frame's finite points already in the map frame.
+//   ours, pipelined: the same frames through the node's CloudPipeline (two workers: frames
+//         prepared in parallel, applied in order), converted on the submitting thread as the
+//         node does; ms per frame = wall time of all frames / frames (throughput), median of
+//         three runs into fresh sessions; the octree must equal ours leaf for leaf.
 // Prints per scene the median ms per frame and the ratios, how the end-voxel rays' map differs from
 // the per-point one, and a JSON line. --ours-only: only ours, 20 times (for profiling).
 #include <octomap/OcTree.h>
@@ -27,6 +31,7 @@
 #include <vector>
 
 #include "bench_common.h"
+#include "octo_slice_mapper/cloud_pipeline.h"
 #include "octo_slice_mapper/map_io.h"
 #include "octo_slice_mapper/mapper.h"
 #include "octo_slice_mapper/sim/depth_camera.h"
@@ -63,6 +68,43 @@ std::vector<Frame> framesOf(const osm::sim::BoxScene& scene, const Eigen::Vector
     frames.push_back(std::move(f));
   }
   return frames;
+}
+
+// Throughput of the frames through a CloudPipeline of `threads` workers into a fresh session: ms
+// per frame (all frames' wall time / frames), and the session's octree afterwards in `tree`.
+double pipelinedMsPerFrame(const std::vector<Frame>& frames, const osm::MapperOptions& options, unsigned threads,
+                           std::unique_ptr<octomap::OcTree>* tree) {
+  osm::MappingSession session(options, osm::SessionOptions{});
+  const auto t0 = std::chrono::steady_clock::now();
+  {
+    osm::CloudPipeline pipeline(&session, threads, 2 * threads);
+    for (const Frame& f : frames) {
+      osm::SensorCloud cloud;
+      const osm::ros_adapter::ScanRejection rejected = osm::ros_adapter::toCoreCloud(f.msg, f.optical_in_map, &cloud);
+      if (rejected.rejected()) std::fprintf(stderr, "rejected: %s\n", rejected.message.c_str());
+      pipeline.submit(std::move(cloud), [](const osm::CloudPipeline::Outcome& o) {
+        if (!o.result.ok()) std::fprintf(stderr, "refused: %s\n", o.result.error.c_str());
+      });
+    }
+    pipeline.wait();
+  }
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  if (tree) {
+    session.withMapper([&](osm::Mapper& m) {
+      tree->reset(new octomap::OcTree(m.tree()));
+    });
+  }
+  return ms / static_cast<double>(frames.size());
+}
+
+// Whether two octrees have the same leaves (keys at the same depth) with the same log-odds.
+bool sameLeaves(const octomap::OcTree& a, const octomap::OcTree& b) {
+  if (a.getNumLeafNodes() != b.getNumLeafNodes()) return false;
+  for (auto it = a.begin_leafs(); it != a.end_leafs(); ++it) {
+    const octomap::OcTreeNode* n = b.search(it.getKey(), it.getDepth());
+    if (!n || n->getLogOdds() != it->getLogOdds()) return false;
+  }
+  return true;
 }
 
 template <typename Insert>
@@ -109,9 +151,10 @@ int main(int argc, char** argv) {
   const int repeats = ours_only ? 20 : 1;
   std::printf("== depth frames, 640 x 480, %.2f m, %d frames per scene (median ms per frame)\n", resolution,
               frames_per_scene);
-  std::printf("  %-6s %8s %10s %10s %12s %12s %10s %10s\n", "scene", "points", "ours", "per point", "octomap",
-              "discretized", "vs octomap", "vs discr.");
+  std::printf("  %-6s %8s %10s %10s %10s %12s %12s %10s %10s %10s %10s\n", "scene", "points", "ours", "pipelined",
+              "per point", "octomap", "discretized", "vs octomap", "vs discr.", "pipe/oct", "pipe/discr");
   std::string json = "{\"bench\": \"cloud_insertion\", \"resolution\": " + std::to_string(resolution) + ", \"scenes\": {";
+  bool all_same = true;  // the pipelined maps equal ours
   for (std::size_t s = 0; s < scenes.size(); ++s) {
     const std::vector<Frame>& frames = scenes[s].frames;
     osm::MapperOptions options;
@@ -132,6 +175,16 @@ int main(int argc, char** argv) {
       conversion_ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
       });
       ours.insert(ours.end(), run.begin(), run.end());
+    }
+    // Frames in parallel on two workers, applied in order: throughput, and the map (equal to ours
+    // when each frame went into a fresh map once, i.e. without --ours-only's repeats).
+    std::vector<double> pipelined;
+    std::unique_ptr<octomap::OcTree> pipelined_tree;
+    for (int r = 0; r < 3; ++r) pipelined.push_back(pipelinedMsPerFrame(frames, options, 2, &pipelined_tree));
+    bool pipelined_same = true;
+    if (!ours_only) {
+      pipelined_same = sameLeaves(mapper.tree(), *pipelined_tree) && sameLeaves(*pipelined_tree, mapper.tree());
+      if (!pipelined_same) std::fprintf(stderr, "pipelined map differs from ours\n");
     }
     // The same path with one ray per point (cloud_one_ray_per_voxel false): what the end-voxel
     // rays replace, and the map they are compared with.
@@ -189,9 +242,9 @@ int main(int argc, char** argv) {
     if (ours_only) std::printf("  (%s: conversion from PointCloud2 %.2f ms of it)\n", scenes[s].name, median(conversion_ms));
     std::vector<double> valid;
     for (const Frame& f : frames) valid.push_back(static_cast<double>(f.valid));
-    const double o = median(ours), p = median(plain), d = median(discrete), e = median(each);
-    std::printf("  %-6s %8.0f %10.1f %10.1f %12.1f %12.1f %9.2fx %9.2fx\n", scenes[s].name, median(valid), o, e, p, d,
-                p / o, d / o);
+    const double o = median(ours), p = median(plain), d = median(discrete), e = median(each), q = median(pipelined);
+    std::printf("  %-6s %8.0f %10.1f %10.1f %10.1f %12.1f %12.1f %9.2fx %9.2fx %9.2fx %9.2fx\n", scenes[s].name,
+                median(valid), o, q, e, p, d, p / o, d / o, p / q, d / q);
     const double leaves = std::max<double>(1.0, double(same + differ + missing));
     if (!ours_only) {
       std::printf("         end-voxel rays vs one per point: of the per-point map's %zu voxels %.2f %% same class, "
@@ -204,11 +257,14 @@ int main(int argc, char** argv) {
     char part[600];
     std::snprintf(part, sizeof part,
                   "%s\"%s\": {\"points\": %.0f, \"ours_ms\": %.2f, \"ours_per_point_ms\": %.2f, \"octomap_ms\": %.2f, "
-                  "\"discretized_ms\": %.2f, \"same_class\": %.4f, \"occupied_lost\": %.4f}",
+                  "\"discretized_ms\": %.2f, \"same_class\": %.4f, \"occupied_lost\": %.4f, \"pipelined_ms\": %.2f, "
+                  "\"pipelined_same_map\": %s}",
                   s ? ", " : "", scenes[s].name, median(valid), o, e, p, d, same / leaves,
-                  occupied_lost / std::max<double>(1.0, double(occupied_per_point)));
+                  occupied_lost / std::max<double>(1.0, double(occupied_per_point)), q,
+                  pipelined_same ? "true" : "false");
     json += part;
+    all_same = all_same && pipelined_same;
   }
   std::printf("%s}}\n", json.c_str());
-  return 0;
+  return all_same ? 0 : 1;
 }

@@ -53,6 +53,15 @@ class MappingSession {
   // thread meanwhile; clouds go in one at a time.
   InsertResult insert(const Scan& scan, double* waited_ms = nullptr);
   InsertResult insert(const SensorCloud& cloud, double* waited_ms = nullptr);
+  // A cloud's two steps, for callers that prepare frames in parallel (CloudPipeline), each with
+  // a preparer of its own: the preparer kept current (made anew when the map was reset, loaded or
+  // reconfigured since it was made), and a frame it prepared applied under the lock (inserted
+  // anew when the map changed meanwhile).
+  // (`grouping_threads`: see InsertOptions::cloud_grouping_threads.)
+  void refreshCloudPreparer(std::unique_ptr<CloudPreparer>* preparer, unsigned grouping_threads = 0);
+  // `map_generation`: the preparer's mapGeneration() when it prepared the frame.
+  InsertResult insertPrepared(PreparedCloud prepared, std::uint64_t map_generation, const SensorCloud& cloud,
+                              double* waited_ms = nullptr);
 
   // Writes PREFIX.{bt,ot,pgm,yaml,png}; `with_global_pass` (the node gives optimize_on_save)
   // also PREFIX_optimized.*, and the result goes into the map when

@@ -51,18 +51,24 @@ InsertResult MappingSession::insert(const SensorCloud& cloud, double* waited_ms)
   // Most of a frame's time is working out its updates, which does not read the map: done outside
   // the lock, so that scans are inserted meanwhile; only applying them holds it.
   std::lock_guard<std::mutex> one_cloud(cloud_mutex_);
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (!cloud_preparer_ || cloud_preparer_->mapGeneration() != mapper_.inserterGeneration()) {
-      cloud_preparer_ = mapper_.cloudPreparer();  // an empty octree and an inserter: cheap
-    }
+  refreshCloudPreparer(&cloud_preparer_);
+  return insertPrepared(cloud_preparer_->prepare(cloud), cloud_preparer_->mapGeneration(), cloud, waited_ms);
+}
+
+void MappingSession::refreshCloudPreparer(std::unique_ptr<CloudPreparer>* preparer, unsigned grouping_threads) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!*preparer || (*preparer)->mapGeneration() != mapper_.inserterGeneration()) {
+    *preparer = mapper_.cloudPreparer(grouping_threads);  // an empty octree and an inserter: cheap
   }
-  PreparedCloud prepared = cloud_preparer_->prepare(cloud);
+}
+
+InsertResult MappingSession::insertPrepared(PreparedCloud prepared, std::uint64_t map_generation,
+                                            const SensorCloud& cloud, double* waited_ms) {
   const auto start = std::chrono::steady_clock::now();
   std::lock_guard<std::mutex> lock(mutex_);
   if (waited_ms) *waited_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   InsertResult result;
-  if (mapper_.insertPrepared(std::move(prepared), cloud_preparer_->mapGeneration(), &result)) return recordInsert(result);
+  if (mapper_.insertPrepared(std::move(prepared), map_generation, &result)) return recordInsert(result);
   // Reset, loaded or reconfigured while it was prepared: inserted the ordinary way.
   return recordInsert(mapper_.insertPoints(cloud.origin, cloud.points));
 }

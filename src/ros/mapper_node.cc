@@ -3,6 +3,7 @@
 #include <tf2_eigen/tf2_eigen.h>
 
 #include <cstdio>
+#include <type_traits>
 
 #include "octo_slice_mapper/map_io.h"
 #include "octo_slice_mapper/thread_cpu_time.h"
@@ -102,6 +103,8 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
           return input;
         });
   }
+  cloud_pipeline_ = std::make_unique<CloudPipeline>(&session_, static_cast<unsigned>(std::max(0, options_.cloud_threads)),
+                                                    /*max_pending=*/4);
   services_ = std::make_unique<MapperServices>(nh_, pnh_, options_, &session_, &publisher_, online_pass_.get());
   reconfigure_ = std::make_unique<LiveReconfigure>(
       pnh_, &session_, [this](double rate) { publish_timer_.setPeriod(ros::WallDuration(1.0 / std::max(0.1, rate))); },
@@ -299,27 +302,40 @@ void MapperNode::insert(const boost::shared_ptr<const M>& msg, const Eigen::Isom
     skip(rejection.key, rejection.message);
     return;
   }
-  const ros::WallTime start = ros::WallTime::now();
-  const double cpu_start = threadCpuSeconds();
-  double waited_ms = 0.0;
-  const InsertResult result = session_.insert(core, &waited_ms);
+  const ros::Time stamp = msg->header.stamp;
+  if constexpr (std::is_same_v<M, sensor_msgs::PointCloud2>) {
+    // Prepared on the pipeline's workers, frames in parallel, applied in arrival order; this
+    // thread goes back to the scans (it waits only when frames pile up).
+    cloud_pipeline_->submit(std::move(core), [this, stamp](const CloudPipeline::Outcome& o) { inserted<M>(o, stamp); });
+  } else {
+    CloudPipeline::Outcome outcome;
+    const ros::WallTime start = ros::WallTime::now();
+    const double cpu_start = threadCpuSeconds();
+    outcome.result = session_.insert(core, &outcome.waited_ms);
+    outcome.work_seconds = outcome.seconds = (ros::WallTime::now() - start).toSec();
+    outcome.cpu_seconds = threadCpuSeconds() - cpu_start;
+    inserted<M>(outcome, stamp);
+  }
+}
+
+template <typename M>
+void MapperNode::inserted(const CloudPipeline::Outcome& outcome, const ros::Time& stamp) {
+  const InsertResult& result = outcome.result;
   if (!result.ok()) {
     skip(Kind<M>::kInvalid, result.error);
     return;
   }
-  publisher_.publishChange(session_, result.touched, msg->header.stamp);
+  publisher_.publishChange(session_, result.touched, stamp);
   if (result.readings.skipped() > 0) {
     // Single dropouts are normal for a lidar: counted, and only shown at debug level.
     ROS_DEBUG_THROTTLE(10.0, "%s readings: %s", Kind<M>::kName, result.readings.summary().c_str());
   }
-  const double seconds = (ros::WallTime::now() - start).toSec();
-  const double cpu_seconds = threadCpuSeconds() - cpu_start;
   std::lock_guard<std::mutex> lock(counters_mutex_);
   Kind<M>::inserted(counters_)++;
-  Kind<M>::seconds(counters_) += seconds;
-  Kind<M>::cpuSeconds(counters_) += cpu_seconds;
-  counters_.last_insert_ms = 1000.0 * seconds;
-  counters_.max_insert_wait_ms = std::max(counters_.max_insert_wait_ms, waited_ms);
+  Kind<M>::seconds(counters_) += outcome.work_seconds;
+  Kind<M>::cpuSeconds(counters_) += outcome.cpu_seconds;
+  counters_.last_insert_ms = 1000.0 * outcome.seconds;
+  counters_.max_insert_wait_ms = std::max(counters_.max_insert_wait_ms, outcome.waited_ms);
 }
 
 void MapperNode::publishDiagnostics(const ros::WallTimerEvent&) {
@@ -369,6 +385,7 @@ std::string MapperNode::summary() {
 
 // Runs after ros::spin() returned; roscpp has shut rosconsole down by then, so print directly.
 void MapperNode::shutdown() {
+  cloud_pipeline_.reset();  // applies the clouds still in it
   reconfigure_.reset();
   services_->stop();
   online_pass_.reset();  // waits for a running pass

@@ -18,6 +18,7 @@
 #include <mutex>
 #include <string>
 
+#include "octo_slice_mapper/cloud_pipeline.h"
 #include "octo_slice_mapper/mapping_session.h"
 #include "ros/diagnostics.h"
 #include "ros/live_reconfigure.h"
@@ -67,6 +68,10 @@ class MapperNode {
   void clearTfIfFromTheFuture(const std_msgs::Header& header, tf2_ros::FilterFailureReason reason);
   // False (and `why`) when tf has no transform at the header's stamp.
   bool sensorPose(const std_msgs::Header& header, Eigen::Isometry3d* pose, std::string* why);
+  // After a message's insertion (on a cloud worker for clouds): its counters, and the map's
+  // change published.
+  template <typename M>
+  void inserted(const CloudPipeline::Outcome& outcome, const ros::Time& stamp);
   void skip(const std::string& reason, const std::string& message);
   // A message stamped 0 is skipped as zero_stamp (true).
   bool stampedZero(const std_msgs::Header& header);
@@ -97,6 +102,7 @@ class MapperNode {
   std::unique_ptr<OnlinePass> online_pass_;
   std::unique_ptr<MapperServices> services_;
   std::unique_ptr<LiveReconfigure> reconfigure_;
+  std::unique_ptr<CloudPipeline> cloud_pipeline_;  // first destroyed: its workers publish and count
 };
 
 }  // namespace ros_adapter

@@ -61,6 +61,8 @@ const std::vector<OptionSpec<NodeOptions>>& nodeOptionTable() {
        [](O& o) -> OptionField { return &o.online_optimize_period; }},
       {"online_optimize_threads", "", "worker threads of the background pass (0 = every core)",
        [](O& o) -> OptionField { return &o.online_optimize_threads; }},
+      {"cloud_threads", "", "workers preparing point clouds, frames in parallel, applied in arrival order (0 = every core)",
+       [](O& o) -> OptionField { return &o.cloud_threads; }},
   };
   return table;
 }

@@ -33,6 +33,8 @@ struct NodeOptions {
   // Worker threads of the background pass. One: a second one made it 25 % faster but doubled the
   // scans' p99 latency at 40 Hz (bench/run_live_latency); saves and ~optimize use every core.
   int online_optimize_threads = 1;
+  // Workers preparing point clouds, frames in parallel, applied in arrival order (0: every core).
+  int cloud_threads = 0;
 };
 
 // The node's own options, named once like the mapper's (option_table.h); maps_dir's default is

@@ -27,6 +27,7 @@
 
 #include "bag_scans.h"
 #include "octo_slice_mapper/carmen_log.h"
+#include "octo_slice_mapper/cloud_pipeline.h"
 #include "octo_slice_mapper/held_out_score.h"
 #include "octo_slice_mapper/mapping_session.h"
 #include "octo_slice_mapper/option_table.h"
@@ -174,10 +175,14 @@ struct Intake {
 };
 
 // Feeds scans and clouds to the session, holding out every Nth scan and reporting refused ones.
+// With clouds, everything goes through a CloudPipeline (frames prepared in parallel, scans and
+// clouds applied in the input's order: the map is the one of inserting them one by one).
 class Feeder {
  public:
   Feeder(const Args& args, osm::MappingSession* session, Intake* intake)
-      : args_(args), session_(session), intake_(intake) {}
+      : args_(args), session_(session), intake_(intake) {
+    if (!args.cloud_topic.empty()) pipeline_ = std::make_unique<osm::CloudPipeline>(session, 0, /*max_pending=*/8);
+  }
 
   // `where`: the log and line (or bag message) the scan came from, for the report of a refused one.
   void scan(const osm::Scan& scan, const std::string& where) {
@@ -187,32 +192,52 @@ class Feeder {
       intake_->held_out.push_back(scan);
       return;
     }
-    if (insert(scan, &intake_->insert_seconds, "invalid_scan", "scan", where)) intake_->beams += scan.ranges.size();
+    const std::size_t beams = scan.ranges.size();
+    insert(scan, &intake_->insert_seconds, "invalid_scan", "scan", where,
+           [this, beams] { intake_->beams += beams; });
   }
   void cloud(const osm::SensorCloud& cloud) {
-    insert(cloud, &intake_->cloud_seconds, "cloud_invalid", "cloud", args_.bag);
+    insert(cloud, &intake_->cloud_seconds, "cloud_invalid", "cloud", args_.bag, [] {});
+  }
+  // Waits for what the pipeline still holds (call before reading the map).
+  void finish() {
+    if (!pipeline_) return;
+    pipeline_->wait();
+    intake_->cloud_preparer_bytes += pipeline_->memoryBytes();
   }
 
  private:
-  // One scan or cloud into the session, timed; a refused one is counted under `reason` and
-  // reported (the first 20).
-  template <typename Item>
-  bool insert(const Item& item, double* seconds, const char* reason, const char* what, const std::string& where) {
+  // One scan or cloud into the session (through the pipeline, when there is one), timed; a
+  // refused one is counted under `reason` and reported (the first 20); `ok` runs for one inserted.
+  template <typename Item, typename Ok>
+  void insert(const Item& item, double* seconds, const char* reason, const char* what, const std::string& where, Ok ok) {
+    if (pipeline_) {
+      // The callbacks run one at a time, in order, on the pipeline's workers.
+      pipeline_->submit(Item(item), [=](const osm::CloudPipeline::Outcome& o) {
+        *seconds += o.work_seconds;
+        if (o.result.ok()) ok();
+        else refused(o.result, reason, what, where);
+      });
+      return;
+    }
     const auto t0 = Clock::now();
     const osm::InsertResult result = session_->insert(item);
     *seconds += std::chrono::duration<double>(Clock::now() - t0).count();
-    if (result.ok()) return true;
+    if (result.ok()) ok();
+    else refused(result, reason, what, where);
+  }
+  void refused(const osm::InsertResult& result, const char* reason, const char* what, const std::string& where) {
     intake_->skipped_scans[reason]++;
     if (++intake_->refused_reported <= 20) {
       std::cerr << "octo_slice_map: " << where << ": " << what << " skipped: " << result.error << "\n";
     }
     if (intake_->refused_reported == 21) std::cerr << "octo_slice_map: (further skipped scans and clouds are only counted)\n";
-    return false;
   }
 
   const Args& args_;
   osm::MappingSession* session_;
   Intake* intake_;
+  std::unique_ptr<osm::CloudPipeline> pipeline_;
 };
 
 // A CARMEN log through `feed`; 0, or the exit status when the log cannot be read at all. Bad
@@ -372,8 +397,9 @@ int main(int argc, char** argv) {
   Intake intake;
   Feeder feed(args, session.get(), &intake);
   code = args.log.empty() ? mapBag(args, &feed, &bar, &intake) : mapLog(args, &feed, &bar, &intake);
+  feed.finish();
   if (code != 0) return code;
-  intake.cloud_preparer_bytes = session->cloudPreparerBytes();
+  intake.cloud_preparer_bytes += session->cloudPreparerBytes();
   osm::Mapper& mapper = session->mapperUnlocked();  // no other thread here
   if (mapper.stats().scans_inserted == 0 && mapper.stats().clouds_inserted == 0) {
     std::cerr << "octo_slice_map: no scan could be inserted from " << (args.log.empty() ? args.bag : args.log) << "\n";
