@@ -88,8 +88,7 @@ class Mapper {
   // insertPoints in two steps, the first away from the Mapper: a preparer for the map as it is
   // now, and its result applied. insertPrepared refuses (false, nothing changed) a result made
   // before a reset, load or reconfigure (another geometry or model): insert that cloud anew.
-  // `grouping_threads`: InsertOptions::cloud_grouping_threads for the preparer.
-  std::unique_ptr<CloudPreparer> cloudPreparer(unsigned grouping_threads = 0) const;
+  std::unique_ptr<CloudPreparer> cloudPreparer() const;
   bool insertPrepared(PreparedCloud prepared, std::uint64_t map_generation, InsertResult* result);
   // Changes whenever the inserter is replaced (reset, load, reconfigure).
   std::uint64_t inserterGeneration() const { return inserter_generation_; }

@@ -57,8 +57,7 @@ class MappingSession {
   // a preparer of its own: the preparer kept current (made anew when the map was reset, loaded or
   // reconfigured since it was made), and a frame it prepared applied under the lock (inserted
   // anew when the map changed meanwhile).
-  // (`grouping_threads`: see InsertOptions::cloud_grouping_threads.)
-  void refreshCloudPreparer(std::unique_ptr<CloudPreparer>* preparer, unsigned grouping_threads = 0);
+  void refreshCloudPreparer(std::unique_ptr<CloudPreparer>* preparer);
   // `map_generation`: the preparer's mapGeneration() when it prepared the frame.
   InsertResult insertPrepared(PreparedCloud prepared, std::uint64_t map_generation, const SensorCloud& cloud,
                               double* waited_ms = nullptr);

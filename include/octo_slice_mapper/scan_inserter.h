@@ -45,10 +45,6 @@ struct InsertOptions {
   // them erased a table top's underside seen from below (cloud_insertion_test). With kSum each
   // end-voxel ray counts as many rays as points end in its voxel.
   EvidenceCombining cloud_combining = EvidenceCombining::kOccupiedWins;
-  // Threads that group a cloud's points by end voxel (0: the machine's cores). CloudPipeline's
-  // workers use 1: they already prepare frames in parallel, and a frame's helper thread on top
-  // only competed with the other frame (room frames 15.4-20.4 against 15.7-22.7 ms).
-  unsigned cloud_grouping_threads = 0;
 };
 
 struct InsertResult {

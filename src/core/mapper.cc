@@ -81,10 +81,8 @@ PreparedCloud CloudPreparer::prepare(const SensorCloud& cloud) {
   return inserter_.prepareCloud(cloud.origin, cloud.points, inserter_.model().halfAngleFor(0.0));
 }
 
-std::unique_ptr<CloudPreparer> Mapper::cloudPreparer(unsigned grouping_threads) const {
-  InsertOptions insert = options_.insert;
-  insert.cloud_grouping_threads = grouping_threads;
-  return std::make_unique<CloudPreparer>(tree_->getResolution(), insert, inserter_generation_);
+std::unique_ptr<CloudPreparer> Mapper::cloudPreparer() const {
+  return std::make_unique<CloudPreparer>(tree_->getResolution(), options_.insert, inserter_generation_);
 }
 
 bool Mapper::insertPrepared(PreparedCloud prepared, std::uint64_t map_generation, InsertResult* result) {

@@ -55,10 +55,10 @@ InsertResult MappingSession::insert(const SensorCloud& cloud, double* waited_ms)
   return insertPrepared(cloud_preparer_->prepare(cloud), cloud_preparer_->mapGeneration(), cloud, waited_ms);
 }
 
-void MappingSession::refreshCloudPreparer(std::unique_ptr<CloudPreparer>* preparer, unsigned grouping_threads) {
+void MappingSession::refreshCloudPreparer(std::unique_ptr<CloudPreparer>* preparer) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (!*preparer || (*preparer)->mapGeneration() != mapper_.inserterGeneration()) {
-    *preparer = mapper_.cloudPreparer(grouping_threads);  // an empty octree and an inserter: cheap
+    *preparer = mapper_.cloudPreparer();  // an empty octree and an inserter: cheap
   }
 }
 

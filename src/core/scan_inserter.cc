@@ -166,11 +166,10 @@ void voxelSumsOf(const std::vector<Eigen::Vector3f>& points, std::size_t begin, 
 }
 
 // Points by the voxel (of an octree of this resolution and depth) they end in: summed per piece
-// of a fixed size first (voxelSumsOf, the pieces on `threads` cores, joined in order: the same groups
+// of a fixed size first (voxelSumsOf, the pieces on every core, joined in order: the same groups
 // and sums on any number of cores), then the pieces' sums through an open-addressing table, in the
 // order they come.
-EndVoxels groupByEndVoxel(const std::vector<Eigen::Vector3f>& points, double resolution, unsigned depth,
-                          unsigned threads) {
+EndVoxels groupByEndVoxel(const std::vector<Eigen::Vector3f>& points, double resolution, unsigned depth) {
   // OctoMap's coordToKey (floor(coordinate / resolution) + the tree's centre key), inline, as
   // floor(coordinate / resolution + centre): non-negative where in range, so truncation is the
   // floor, without a call to floor() per coordinate (which more than doubled the time).
@@ -182,7 +181,7 @@ EndVoxels groupByEndVoxel(const std::vector<Eigen::Vector3f>& points, double res
   constexpr std::size_t kPiece = std::size_t(1) << 14;
   const std::size_t pieces = (points.size() + kPiece - 1) / kPiece;
   std::vector<EndVoxels> parts(std::max<std::size_t>(1, pieces));
-  forEachPiece(points.size(), pieces, workersFor(threads, points.size(), kPiece),
+  forEachPiece(points.size(), pieces, workersFor(0, points.size(), kPiece),
                [&](std::size_t begin, std::size_t end, std::size_t piece) {
                  voxelSumsOf(points, begin, end, inverse, centre, &parts[piece]);
                });
@@ -252,8 +251,7 @@ std::vector<Beam> ScanInserter::cloudBeams(const Eigen::Vector3d& origin, const 
     }
     return beams;
   }
-  const EndVoxels grouped =
-      groupByEndVoxel(points, tree_->getResolution(), tree_->getTreeDepth(), options_.cloud_grouping_threads);
+  const EndVoxels grouped = groupByEndVoxel(points, tree_->getResolution(), tree_->getTreeDepth());
   c += grouped.non_finite;
   for (const Eigen::Vector3d& q : grouped.outside) beamTo(q, 1);  // its own beam (dropped where it leaves)
   beams.reserve(beams.size() + grouped.voxels.size());
