@@ -18,7 +18,8 @@
 //         node does; ms per frame = wall time of all frames / frames (throughput), median of
 //         three runs into fresh sessions; the octree must equal ours leaf for leaf.
 // Prints per scene the median ms per frame and the ratios, how the end-voxel rays' map differs from
-// the per-point one, and a JSON line. --ours-only: only ours, 20 times (for profiling).
+// the per-point one, and a JSON line (exit status 1 if a pipelined map differs). --ours-only: only
+// ours, 20 times, and the pipelined runs (for profiling).
 #include <octomap/OcTree.h>
 #include <sensor_msgs/PointCloud2.h>
 
