@@ -148,7 +148,7 @@ std::string jsonScore(const osm::HeldOutScore& e) {
 }
 
 // Bytes per observed 2D cell (a known slice cell) of the octree and of the slice grid.
-// `cloud_preparer`: the session's second evidence window for clouds (0 without clouds).
+// `cloud_preparer`: the evidence windows that prepare clouds besides the mapper's own (0 without clouds).
 std::string jsonMemory(osm::Mapper& mapper, std::size_t cloud_preparer) {
   const double cells = std::max<std::size_t>(1, mapper.slice().knownCells());
   const std::size_t octree = mapper.tree().memoryUsage();
@@ -171,7 +171,7 @@ struct Intake {
   std::size_t refused_reported = 0;
   std::size_t bad_lines = 0;
   std::string end_error;  // a log that ended early (truncated gzip)
-  std::size_t cloud_preparer_bytes = 0;  // the session's window for preparing clouds
+  std::size_t cloud_preparer_bytes = 0;  // the pipeline's windows for preparing clouds
 };
 
 // Feeds scans and clouds to the session, holding out every Nth scan and reporting refused ones.
@@ -203,7 +203,7 @@ class Feeder {
   void finish() {
     if (!pipeline_) return;
     pipeline_->wait();
-    intake_->cloud_preparer_bytes += pipeline_->memoryBytes();
+    intake_->cloud_preparer_bytes = pipeline_->memoryBytes();
   }
 
  private:
@@ -399,7 +399,6 @@ int main(int argc, char** argv) {
   code = args.log.empty() ? mapBag(args, &feed, &bar, &intake) : mapLog(args, &feed, &bar, &intake);
   feed.finish();
   if (code != 0) return code;
-  intake.cloud_preparer_bytes += session->cloudPreparerBytes();
   osm::Mapper& mapper = session->mapperUnlocked();  // no other thread here
   if (mapper.stats().scans_inserted == 0 && mapper.stats().clouds_inserted == 0) {
     std::cerr << "octo_slice_map: no scan could be inserted from " << (args.log.empty() ? args.bag : args.log) << "\n";
