@@ -10,16 +10,19 @@
 // them) go, in order, into a fresh 0.05 m octree per method:
 //   ours: the node's path: PointCloud2 (organized, NaN where no depth) -> checked, converted to
 //         the map frame (toCoreCloud) -> Mapper::insertPoints (full inverse model, one ray per
-//         end voxel); "per point": the same with one ray per point (the path before issue 22);
+//         end voxel, shared free space walked about once: cloud_shared_free_run 16);
+//         "whole rays": the same with every ray walked whole (cloud_shared_free_run 0); "per
+//         point": that with one ray per point too (the path before issue 22);
 //   octomap insertPointCloud, and insertPointCloud(..., discretize = true) (one ray per end
 //         voxel), given the frame's finite points already in the map frame.
 //   ours, pipelined: the same frames through the node's CloudPipeline (two workers: frames
 //         prepared in parallel, applied in order), converted on the submitting thread as the
 //         node does; ms per frame = wall time of all frames / frames (throughput), median of
 //         three runs into fresh sessions; the octree must equal ours leaf for leaf.
-// Prints per scene the median ms per frame and the ratios, how the end-voxel rays' map differs from
-// the per-point one, and a JSON line (exit status 1 if a pipelined map differs). --ours-only: only
-// ours, 20 times, and the pipelined runs (for profiling).
+// Prints per scene the median ms per frame and the ratios, how our map differs from the whole
+// rays' and from the per-point one (voxels by class, the navigation slice's cells by map_server's
+// class), and a JSON line (exit status 1 if a pipelined map differs). --ours-only: only ours, 20
+// times, and the pipelined runs (for profiling).
 #include <octomap/OcTree.h>
 #include <sensor_msgs/PointCloud2.h>
 
@@ -108,6 +111,66 @@ bool sameLeaves(const octomap::OcTree& a, const octomap::OcTree& b) {
   return true;
 }
 
+// How a map made with an approximation agrees with its reference: the reference's voxels by
+// class in the other, and the navigation slices' cells by map_server's class.
+struct Agreement {
+  std::size_t same = 0, differ = 0, missing = 0, occupied = 0, occupied_lost = 0;
+  std::size_t cells = 0, cells_same = 0, occupied_cells = 0, occupied_cells_kept = 0;
+  double sameShare() const { return same / std::max(1.0, double(same + differ + missing)); }
+  double occupiedLostShare() const { return occupied_lost / std::max(1.0, double(occupied)); }
+  double sliceSameShare() const { return cells_same / std::max(1.0, double(cells)); }
+};
+
+// map_server's class of a slice value (percent; -1 unknown): 1 occupied, 0 free, -1 unknown.
+int trinary(int value) { return value >= 65 ? 1 : value >= 0 && value <= 19 ? 0 : -1; }
+
+Agreement agreement(osm::Mapper& reference, osm::Mapper& other) {
+  Agreement g;
+  const octomap::OcTree& a = reference.tree();
+  const octomap::OcTree& b = other.tree();
+  for (auto it = a.begin_leafs(); it != a.end_leafs(); ++it) {
+    const octomap::OcTreeNode* n = b.search(it.getKey());
+    const bool occ = a.isNodeOccupied(*it);
+    g.occupied += occ;
+    if (!n) {
+      ++g.missing;
+      g.occupied_lost += occ;
+    } else if (b.isNodeOccupied(n) == occ) {
+      ++g.same;
+    } else {
+      ++g.differ;
+      g.occupied_lost += occ;
+    }
+  }
+  const osm::GridImage s = osm::gridImageOf(reference.slice());
+  for (int j = 0; j < s.height; ++j) {
+    for (int i = 0; i < s.width; ++i) {
+      const int ref = trinary(s.at(i, j));
+      if (ref < 0) continue;
+      const int v = trinary(other.slice().valueAt(s.origin_x + (i + 0.5) * s.resolution, s.origin_y + (j + 0.5) * s.resolution));
+      ++g.cells;
+      g.cells_same += v == ref;
+      if (ref == 1) {
+        ++g.occupied_cells;
+        g.occupied_cells_kept += v == 1;
+      }
+    }
+  }
+  return g;
+}
+
+void printAgreement(const char* what, const char* reference, const Agreement& g) {
+  const double leaves = std::max(1.0, double(g.same + g.differ + g.missing));
+  std::printf("         %s: of the %s map's %zu voxels %.2f %% same class, %.2f %% other class, %.2f %% unknown; "
+              "of its %zu occupied %.2f %% not occupied\n",
+              what, reference, g.same + g.differ + g.missing, 100.0 * g.same / leaves, 100.0 * g.differ / leaves,
+              100.0 * g.missing / leaves, g.occupied, 100.0 * g.occupiedLostShare());
+  std::printf("           navigation slice (0.05-0.80 m): of its %zu known cells %.2f %% the same class, of its %zu "
+              "occupied %.2f %% occupied\n",
+              g.cells, 100.0 * g.sliceSameShare(), g.occupied_cells,
+              100.0 * g.occupied_cells_kept / std::max(1.0, double(g.occupied_cells)));
+}
+
 template <typename Insert>
 std::vector<double> timeFrames(const std::vector<Frame>& frames, Insert&& insert) {
   std::vector<double> ms;
@@ -152,8 +215,8 @@ int main(int argc, char** argv) {
   const int repeats = ours_only ? 20 : 1;
   std::printf("== depth frames, 640 x 480, %.2f m, %d frames per scene (median ms per frame)\n", resolution,
               frames_per_scene);
-  std::printf("  %-6s %8s %10s %10s %10s %12s %12s %10s %10s %10s %10s\n", "scene", "points", "ours", "pipelined",
-              "per point", "octomap", "discretized", "vs octomap", "vs discr.", "pipe/oct", "pipe/discr");
+  std::printf("  %-6s %8s %10s %10s %11s %10s %12s %12s %10s %10s %10s %10s\n", "scene", "points", "ours", "pipelined",
+              "whole rays", "per point", "octomap", "discretized", "vs octomap", "vs discr.", "pipe/oct", "pipe/discr");
   std::string json = "{\"bench\": \"cloud_insertion\", \"resolution\": " + std::to_string(resolution) + ", \"scenes\": {";
   bool all_same = true;  // the pipelined maps equal ours
   for (std::size_t s = 0; s < scenes.size(); ++s) {
@@ -187,47 +250,26 @@ int main(int argc, char** argv) {
       pipelined_same = sameLeaves(mapper.tree(), *pipelined_tree) && sameLeaves(*pipelined_tree, mapper.tree());
       if (!pipelined_same) std::fprintf(stderr, "pipelined map differs from ours\n");
     }
-    // The same path with one ray per point (cloud_one_ray_per_voxel false): what the end-voxel
-    // rays replace, and the map they are compared with.
-    osm::MapperOptions per_point_options = options;
+    // The approximations' reference: every ray walked whole (cloud_shared_free_run 0), one
+    // ray per end voxel ("whole rays") and one per point (cloud_one_ray_per_voxel false too).
+    osm::MapperOptions whole_options = options;
+    whole_options.insert.cloud_shared_free_run = 0;
+    osm::Mapper whole(whole_options);
+    const std::vector<double> walked = ours_only ? std::vector<double>{0.0} : timeFrames(frames, [&](const Frame& f) {
+      osm::ros_adapter::toCoreCloud(f.msg, f.optical_in_map, &cloud);
+      whole.insertPoints(cloud.origin, cloud.points);
+    });
+    osm::MapperOptions per_point_options = whole_options;
     per_point_options.insert.cloud_one_ray_per_voxel = false;
     osm::Mapper per_point(per_point_options);
     const std::vector<double> each = ours_only ? std::vector<double>{0.0} : timeFrames(frames, [&](const Frame& f) {
       osm::ros_adapter::toCoreCloud(f.msg, f.optical_in_map, &cloud);
       per_point.insertPoints(cloud.origin, cloud.points);
     });
-    // How the end-voxel rays change the map: the per-point map's voxels, by class, in the other.
-    std::size_t same = 0, differ = 0, missing = 0, occupied_per_point = 0, occupied_lost = 0;
+    Agreement vs_per_point, vs_whole;
     if (!ours_only) {
-      const octomap::OcTree& a = per_point.tree();
-      const octomap::OcTree& b = mapper.tree();
-      for (auto it = a.begin_leafs(); it != a.end_leafs(); ++it) {
-        const octomap::OcTreeNode* n = b.search(it.getKey());
-        const bool occ = a.isNodeOccupied(*it);
-        occupied_per_point += occ;
-        if (!n) {
-          ++missing;
-          occupied_lost += occ;
-        } else if (b.isNodeOccupied(n) == occ) {
-          ++same;
-        } else {
-          ++differ;
-          occupied_lost += occ;
-        }
-      }
-    }
-    // ... and in the navigation slice: the per-point slice's occupied cells, occupied here too.
-    std::size_t slice_occupied = 0, slice_kept = 0;
-    if (!ours_only) {
-      const osm::GridImage a = osm::gridImageOf(per_point.slice());
-      for (int j = 0; j < a.height; ++j) {
-        for (int i = 0; i < a.width; ++i) {
-          if (a.at(i, j) < 65) continue;
-          ++slice_occupied;
-          slice_kept += mapper.slice().valueAt(a.origin_x + (i + 0.5) * a.resolution,
-                                               a.origin_y + (j + 0.5) * a.resolution) >= 65;
-        }
-      }
+      vs_per_point = agreement(per_point, mapper);
+      vs_whole = agreement(whole, mapper);
     }
     octomap::OcTree full(resolution), discretized(resolution);
     const auto origin = [](const Frame& f) {
@@ -243,25 +285,22 @@ int main(int argc, char** argv) {
     if (ours_only) std::printf("  (%s: conversion from PointCloud2 %.2f ms of it)\n", scenes[s].name, median(conversion_ms));
     std::vector<double> valid;
     for (const Frame& f : frames) valid.push_back(static_cast<double>(f.valid));
-    const double o = median(ours), p = median(plain), d = median(discrete), e = median(each), q = median(pipelined);
-    std::printf("  %-6s %8.0f %10.1f %10.1f %10.1f %12.1f %12.1f %9.2fx %9.2fx %9.2fx %9.2fx\n", scenes[s].name,
-                median(valid), o, q, e, p, d, p / o, d / o, p / q, d / q);
-    const double leaves = std::max<double>(1.0, double(same + differ + missing));
+    const double o = median(ours), p = median(plain), d = median(discrete), e = median(each), q = median(pipelined),
+                 w = median(walked);
+    std::printf("  %-6s %8.0f %10.1f %10.1f %11.1f %10.1f %12.1f %12.1f %9.2fx %9.2fx %9.2fx %9.2fx\n",
+                scenes[s].name, median(valid), o, q, w, e, p, d, p / o, d / o, p / q, d / q);
     if (!ours_only) {
-      std::printf("         end-voxel rays vs one per point: of the per-point map's %zu voxels %.2f %% same class, "
-                  "%.2f %% other class, %.2f %% unknown; of its %zu occupied %.2f %% not occupied\n",
-                  same + differ + missing, 100.0 * same / leaves, 100.0 * differ / leaves, 100.0 * missing / leaves,
-                  occupied_per_point, 100.0 * occupied_lost / std::max<double>(1.0, double(occupied_per_point)));
-      std::printf("         navigation slice (0.05-0.80 m): of the per-point slice's %zu occupied cells %.2f %% occupied\n",
-                  slice_occupied, 100.0 * slice_kept / std::max<double>(1.0, double(slice_occupied)));
+      printAgreement("shared free space vs whole rays", "whole-ray", vs_whole);
+      printAgreement("ours vs one ray per point, walked whole", "per-point", vs_per_point);
     }
-    char part[600];
+    char part[800];
     std::snprintf(part, sizeof part,
-                  "%s\"%s\": {\"points\": %.0f, \"ours_ms\": %.2f, \"ours_per_point_ms\": %.2f, \"octomap_ms\": %.2f, "
-                  "\"discretized_ms\": %.2f, \"same_class\": %.4f, \"occupied_lost\": %.4f, \"pipelined_ms\": %.2f, "
+                  "%s\"%s\": {\"points\": %.0f, \"ours_ms\": %.2f, \"whole_rays_ms\": %.2f, \"ours_per_point_ms\": %.2f, "
+                  "\"octomap_ms\": %.2f, \"discretized_ms\": %.2f, \"same_class\": %.4f, \"occupied_lost\": %.4f, "
+                  "\"same_class_vs_whole_rays\": %.4f, \"slice_same_vs_whole_rays\": %.4f, \"pipelined_ms\": %.2f, "
                   "\"pipelined_same_map\": %s}",
-                  s ? ", " : "", scenes[s].name, median(valid), o, e, p, d, same / leaves,
-                  occupied_lost / std::max<double>(1.0, double(occupied_per_point)), q,
+                  s ? ", " : "", scenes[s].name, median(valid), o, w, e, p, d, vs_per_point.sameShare(),
+                  vs_per_point.occupiedLostShare(), vs_whole.sameShare(), vs_whole.sliceSameShare(), q,
                   pipelined_same ? "true" : "false");
     json += part;
     all_same = all_same && pipelined_same;

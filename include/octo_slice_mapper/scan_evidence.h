@@ -77,6 +77,8 @@ class ScanEvidence {
     touched_[count_] = index;  // kept only if the voxel had no evidence (branch-free)
     count_ += old == 0;
   }
+  // The voxel's word as combined so far (0: no evidence yet).
+  std::uint32_t wordAt(Index index) const { return cells_[index]; }
   // The window's voxels as a walk's indices (voxel_traversal.h): a voxel's index, the key of an
   // index and what a step along each axis adds. Linear in the key: the box's corner is folded
   // into offset_; power-of-two strides: an index converts back to its key by shifts and masks.

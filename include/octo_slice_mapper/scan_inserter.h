@@ -45,6 +45,13 @@ struct InsertOptions {
   // them erased a table top's underside seen from below (cloud_insertion_test). With kSum each
   // end-voxel ray counts as many rays as points end in its voxel.
   EvidenceCombining cloud_combining = EvidenceCombining::kOccupiedWins;
+  // Free space that a frame's rays share is walked about once (kOccupiedWins only; 0 = off): each
+  // ray is walked from its end back towards the sensor, and in its free valley it stops after this
+  // many voxels in a row that earlier rays of the frame already gave the whole free valley. Near
+  // the sensor a frame's rays cross each voxel dozens of times. An approximation: a voxel that only
+  // the rest of a stopped ray would have reached misses this frame's update (README "Depth camera":
+  // with 16, 0.3-0.4 % of the voxels after ten frames, none of the occupied).
+  int cloud_shared_free_run = 16;
 };
 
 struct InsertResult {
@@ -142,8 +149,9 @@ class ScanInserter {
   void traceEvidence(const Eigen::Vector3d& origin, const std::vector<Beam>& beams, double half_angle,
                      const std::function<void(const octomap::OcTreeKey&, float)>& fn, bool shortcuts);
   // Per-voxel log-odds updates of beams before they are applied, in traversal order.
+  // `shared_free_run` > 0: a cloud's rays stop in free space earlier rays gave (cloud_shared_free_run).
   std::vector<KeyUpdate> computeUpdates(const Eigen::Vector3d& origin, const std::vector<Beam>& beams,
-                                          double half_angle);
+                                        double half_angle, int shared_free_run = 0);
 
   InsertResult apply(std::vector<KeyUpdate> updates, InsertResult result);
   InsertResult insertIntoLayers(const Eigen::Vector3d& origin, const std::vector<Beam>& beams, double half_angle,
@@ -154,12 +162,12 @@ class ScanInserter {
   std::vector<KeyUpdate> sparseUpdates(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
                                        const std::vector<Beam>& beams, double half_angle);
   void traceIntoWindow(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
-                       const std::vector<Beam>& beams, double half_angle);
+                       const std::vector<Beam>& beams, double half_angle, int shared_free_run = 0);
   // With `shortcuts`, voxels that are surely in a beam's free valley get l_free without the
   // model being evaluated; without, every voxel is judged (the reference for tests).
   template <typename Cells, typename Sink>
   void traceBeams(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key, const std::vector<Beam>& beams,
-                  double half_angle, const Cells& cells, Sink&& sink, bool shortcuts);
+                  double half_angle, const Cells& cells, Sink&& sink, bool shortcuts, int shared_free_run = 0);
   template <typename Sink>
   static void handOnOncePerVoxel(std::vector<KeyUpdate>* evidence, Sink&& sink);
   double traceLength(const Beam& beam) const;

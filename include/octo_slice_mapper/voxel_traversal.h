@@ -174,8 +174,9 @@ struct PackedKeys {
 // voxel's in `cells` (PackedKeys, or a window with the same members). Exactly one axis advances
 // per step, so the end voxel is due after the keys' distance in steps; where rounding took
 // another route the end voxel is visited last anyway (at t_exit 1): a beam ends at its return.
+// False if visit stopped the walk (the end voxel is then not visited).
 template <typename Cells, typename Visit>
-inline void traverseVoxels(const octomap::OcTree& tree, const Eigen::Vector3d& from, const Eigen::Vector3d& to,
+inline bool traverseVoxels(const octomap::OcTree& tree, const Eigen::Vector3d& from, const Eigen::Vector3d& to,
                            const octomap::OcTreeKey& from_key, const octomap::OcTreeKey& to_key, const Cells& cells,
                            Visit&& visit) {
   using Index = typename Cells::Index;
@@ -190,12 +191,12 @@ inline void traverseVoxels(const octomap::OcTree& tree, const Eigen::Vector3d& f
   Index p = cells.indexOf(from_key);
   const Index end = cells.indexOf(to_key);
   // One z step in 16 or fewer: nearly level (the same cells either way, only the speed differs).
-  if (16 * std::abs(int(to_key[2]) - int(from_key[2])) <= steps) {
-    walkSpaceFewZ(p, axes[0], axes[1], axes[2], step, steps, visit);
-  } else {
-    walkSpace(p, axes[0], axes[1], axes[2], step, steps, visit);
-  }
-  if (p != end) visit(end, 1.0);
+  const bool walked = 16 * std::abs(int(to_key[2]) - int(from_key[2])) <= steps
+                          ? walkSpaceFewZ(p, axes[0], axes[1], axes[2], step, steps, visit)
+                          : walkSpace(p, axes[0], axes[1], axes[2], step, steps, visit);
+  if (!walked) return false;
+  if (p != end) return detail::keepWalking(visit, end, 1.0);
+  return true;
 }
 
 // The same walk for a segment in one horizontal layer (from.z == to.z): the same voxels and t_exit

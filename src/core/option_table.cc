@@ -39,6 +39,10 @@ const std::vector<OptionSpec<MapperOptions>>& mapperOptionTable() {
        [](O& o) -> OptionField { return &o.insert.cloud_max_range; }},
       {"cloud_evidence_combining", "", "point clouds: how a frame's rays combine per voxel: occupied_wins or sum",
        [](O& o) -> OptionField { return &o.insert.cloud_combining; }},
+      {"cloud_shared_free_run", "",
+       "point clouds: a ray stops after this many voxels in a row that earlier rays of the frame cleared "
+       "(occupied_wins only; 0 = every ray walked whole)",
+       [](O& o) -> OptionField { return &o.insert.cloud_shared_free_run; }},
       {"cloud_mark_min_z", "m", "point clouds: only returns at or above this height mark (the floor clears only)",
        [](O& o) -> OptionField { return &o.insert.cloud_mark_min_z; }},
       {"cloud_mark_max_z", "m", "point clouds: only returns at or below this height mark",

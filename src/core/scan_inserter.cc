@@ -83,7 +83,10 @@ PreparedCloud ScanInserter::prepareCloud(const Eigen::Vector3d& origin, const st
   if (!prepared.result.ok()) return prepared;
   const std::vector<Beam> beams = cloudBeams(origin, points, &prepared.result.readings);
   evidence_.setCombining(options_.cloud_combining);
-  prepared.updates = computeUpdates(origin, beams, half_angle);
+  // Summed evidence counts every ray: none may stop early.
+  const int shared_free_run =
+      options_.cloud_combining == EvidenceCombining::kOccupiedWins ? std::max(0, options_.cloud_shared_free_run) : 0;
+  prepared.updates = computeUpdates(origin, beams, half_angle, shared_free_run);
   prepared.result.beams_outside_octree = beams_outside_;
   evidence_.setCombining(options_.combining);
   return prepared;
@@ -455,7 +458,7 @@ class VoxelCentres {
 template <typename Cells, typename Sink>
 void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
                               const std::vector<Beam>& beams, double half_angle, const Cells& cells, Sink&& sink,
-                              bool shortcuts) {
+                              bool shortcuts, int shared_free_run) {
   using Index = typename Cells::Index;
   if (!cone_ || cone_->halfAngle() != half_angle) cone_.emplace(model_, half_angle);
   const double tan_full = std::tan(model_.fullWeightAngle(half_angle));
@@ -519,6 +522,33 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
                     half_diagonal, &s_lo, &s_hi);
       }
       const double t_lo = (s_lo - ray.start) / (length - ray.start), t_hi = (s_hi - ray.start) / (length - ray.start);
+      if constexpr (std::is_same_v<Cells, ScanEvidence>) {
+        if (shared_free_run > 0 && !fanned) {
+          // From the end back to the sensor: the end's evidence first, then the free valley until
+          // `shared_free_run` voxels in a row already hold it (the walk's t is from the end: going
+          // forward, a voxel is left where the backward walk entered it).
+          const std::uint32_t free_word = ScanEvidence::code(weighted_free);
+          double entered = 0.0;
+          int run = 0;
+          traverseVoxels(*tree_, far, from, ray.far_key, from_key, cells,
+                         [&](Index index, double t_exit) __attribute__((always_inline)) {
+                           const double forward_exit = 1.0 - entered;
+                           entered = t_exit;
+                           if (forward_exit > t_lo && forward_exit < t_hi) {
+                             if (cells.wordAt(index) == free_word) return ++run < shared_free_run;
+                             run = 0;
+                             emit(index, weighted_free);
+                             return true;
+                           }
+                           double along, lateral_sq;
+                           in_3d(cells.keyOf(index), &along, &lateral_sq);
+                           const float value = evidence.at(along, lateral_sq, axis_ray);
+                           if (value != 0.0f) emit(index, value * weight);
+                           return true;
+                         });
+          continue;
+        }
+      }
       if (level_beam) {  // its rays stay in the origin's layer: from.z == far.z exactly
         traverseLevel(*tree_, from, far, from_key, ray.far_key, cells, visitor(t_lo, t_hi, in_layer));
       } else {
@@ -552,27 +582,27 @@ void ScanInserter::handOnOncePerVoxel(std::vector<KeyUpdate>* evidence, Sink&& s
 }
 
 std::vector<KeyUpdate> ScanInserter::computeUpdates(const Eigen::Vector3d& origin, const std::vector<Beam>& beams,
-                                                    double half_angle) {
+                                                    double half_angle, int shared_free_run) {
   octomap::OcTreeKey origin_key;
   if (!coordToKeySafe(*tree_, origin.x(), origin.y(), origin.z(), &origin_key)) return {};
   const KeyBox box = prepareBeams(origin, origin_key, beams, std::tan(half_angle));
   if (!evidence_.begin(box, max_visits_)) return sparseUpdates(origin, origin_key, beams, half_angle);
   std::vector<KeyUpdate> updates;
-  traceIntoWindow(origin, origin_key, beams, half_angle);
+  traceIntoWindow(origin, origin_key, beams, half_angle, shared_free_run);
   evidence_.drain([&updates](const octomap::OcTreeKey& key, float update) { updates.push_back({key, update}); });
   return updates;
 }
 
 // The evidence of the beams prepareBeams kept, into the window begun over their box.
 void ScanInserter::traceIntoWindow(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
-                                   const std::vector<Beam>& beams, double half_angle) {
+                                   const std::vector<Beam>& beams, double half_angle, int shared_free_run) {
   // The tracer instantiated per rule (scans sum, clouds by default keep the occupied).
   evidence_.withCombining([&](auto rule) {
     traceBeams(
         origin, origin_key, beams, half_angle, evidence_,
         [this](ScanEvidence::Index index, float value)
             __attribute__((always_inline)) { evidence_.addAtAs<decltype(rule)::value>(index, value); },
-        /*shortcuts=*/true);
+        /*shortcuts=*/true, decltype(rule)::value == EvidenceCombining::kOccupiedWins ? shared_free_run : 0);
   });
 }
 
