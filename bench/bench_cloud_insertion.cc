@@ -16,9 +16,10 @@
 //   octomap insertPointCloud, and insertPointCloud(..., discretize = true) (one ray per end
 //         voxel), given the frame's finite points already in the map frame.
 //   ours, pipelined: the same frames through the node's CloudPipeline (two workers: frames
-//         prepared in parallel, applied in order), converted on the submitting thread as the
-//         node does; ms per frame = wall time of all frames / frames (throughput), median of
-//         three runs into fresh sessions; the octree must equal ours leaf for leaf.
+//         converted and prepared in parallel, applied in order; the layout checked on the
+//         submitting thread, as the node does); ms per frame = wall time of all frames / frames
+//         (throughput), median of three runs into fresh sessions; the octree must equal ours
+//         leaf for leaf.
 // Prints per scene the median ms per frame and the ratios, how our map differs from the whole
 // rays' and from the per-point one (voxels by class, the navigation slice's cells by map_server's
 // class), and a JSON line (exit status 1 if a pipelined map differs). --ours-only: only ours, 20
@@ -83,9 +84,14 @@ double pipelinedMsPerFrame(const std::vector<Frame>& frames, const osm::MapperOp
   {
     osm::CloudPipeline pipeline(&session, threads, 2 * threads);
     for (const Frame& f : frames) {
-      osm::SensorCloud cloud;
-      const osm::ros_adapter::ScanRejection rejected = osm::ros_adapter::toCoreCloud(f.msg, f.optical_in_map, &cloud);
+      // As the node: the layout checked on this thread, the points converted on the worker.
+      const osm::ros_adapter::ScanRejection rejected = osm::ros_adapter::checkCloudLayout(f.msg);
       if (rejected.rejected()) std::fprintf(stderr, "rejected: %s\n", rejected.message.c_str());
+      osm::DeferredCloud cloud;
+      cloud.origin = f.optical_in_map.translation();
+      cloud.points = [&f](std::vector<Eigen::Vector3f>* points) {
+        osm::ros_adapter::cloudPointsInMap(f.msg, f.optical_in_map.cast<float>(), points);
+      };
       pipeline.submit(std::move(cloud), [](const osm::CloudPipeline::Outcome& o) {
         if (!o.result.ok()) std::fprintf(stderr, "refused: %s\n", o.result.error.c_str());
       });

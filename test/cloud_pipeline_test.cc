@@ -6,6 +6,7 @@
 
 #include <atomic>
 #include <random>
+#include <stdexcept>
 #include <vector>
 
 #include "octo_slice_mapper/sim/depth_camera.h"
@@ -82,8 +83,19 @@ TEST_F(CloudPipelineTest, GivesTheMapOfInsertingOneByOneInTheOrderSubmitted) {
           if (!o.result.ok()) failed++;
         };
       };
+      // Every other cloud as the node hands it on: its points made on the worker.
+      std::size_t clouds = 0;
       forEachInput([&](const Scan& scan) { pipeline.submit(scan, done(0)); },
-                   [&](const SensorCloud& cloud) { pipeline.submit(cloud, done(1)); });
+                   [&](const SensorCloud& cloud) {
+                     if (clouds++ % 2 == 0) {
+                       pipeline.submit(cloud, done(1));
+                       return;
+                     }
+                     DeferredCloud deferred;
+                     deferred.origin = cloud.origin;
+                     deferred.points = [&cloud](std::vector<Eigen::Vector3f>* points) { *points = cloud.points; };
+                     pipeline.submit(std::move(deferred), done(1));
+                   });
       pipeline.wait();
       EXPECT_GT(pipeline.memoryBytes(), 0u);
     }
@@ -99,23 +111,30 @@ TEST_F(CloudPipelineTest, GivesTheMapOfInsertingOneByOneInTheOrderSubmitted) {
   }
 }
 
-// The destructor applies what was submitted; a refused cloud is reported in its turn and the
-// ones after it still go in.
+// The destructor applies what was submitted; a refused cloud (its origin outside the octree, or
+// its points not made: the conversion threw) is reported in its turn and the ones after it still
+// go in.
 TEST_F(CloudPipelineTest, ARefusedCloudLosesNothingElseAndTheDestructorAppliesTheRest) {
   MappingSession session(options(), SessionOptions{});
   std::vector<std::string> errors;
   {
     CloudPipeline pipeline(&session, 2, 2);
+    const auto record = [&](const CloudPipeline::Outcome& o) { errors.push_back(o.result.error); };
     SensorCloud outside = (*clouds_)[0];
     outside.origin = Eigen::Vector3d(1e7, 0.0, 0.0);  // beyond the octree's keys
-    pipeline.submit((*clouds_)[0], [&](const CloudPipeline::Outcome& o) { errors.push_back(o.result.error); });
-    pipeline.submit(outside, [&](const CloudPipeline::Outcome& o) { errors.push_back(o.result.error); });
-    for (std::size_t k = 1; k < clouds_->size(); ++k) {
-      pipeline.submit((*clouds_)[k], [&](const CloudPipeline::Outcome& o) { errors.push_back(o.result.error); });
-    }
+    DeferredCloud unmade;
+    unmade.origin = (*clouds_)[0].origin;
+    unmade.points = [](std::vector<Eigen::Vector3f>*) { throw std::runtime_error("conversion failed"); };
+    pipeline.submit((*clouds_)[0], record);
+    pipeline.submit(outside, record);
+    pipeline.submit(std::move(unmade), record);
+    for (std::size_t k = 1; k < clouds_->size(); ++k) pipeline.submit((*clouds_)[k], record);
   }  // no wait(): the destructor's
-  ASSERT_EQ(errors.size(), clouds_->size() + 1);
-  for (std::size_t k = 0; k < errors.size(); ++k) EXPECT_EQ(errors[k].empty(), k != 1) << k << ": " << errors[k];
+  ASSERT_EQ(errors.size(), clouds_->size() + 2);
+  for (std::size_t k = 0; k < errors.size(); ++k) {
+    EXPECT_EQ(errors[k].empty(), k != 1 && k != 2) << k << ": " << errors[k];
+  }
+  EXPECT_NE(errors[2].find("conversion failed"), std::string::npos) << errors[2];
   session.withMapper([&](Mapper& m) { EXPECT_EQ(m.stats().clouds_inserted, clouds_->size()); });
 }
 

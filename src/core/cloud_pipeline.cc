@@ -36,9 +36,11 @@ CloudPipeline::~CloudPipeline() {
 
 void CloudPipeline::submit(SensorCloud cloud, Done done) { submitJob(std::move(cloud), std::move(done)); }
 
+void CloudPipeline::submit(DeferredCloud cloud, Done done) { submitJob(std::move(cloud), std::move(done)); }
+
 void CloudPipeline::submit(Scan scan, Done done) { submitJob(std::move(scan), std::move(done)); }
 
-void CloudPipeline::submitJob(std::variant<SensorCloud, Scan> input, Done done) {
+void CloudPipeline::submitJob(std::variant<SensorCloud, Scan, DeferredCloud> input, Done done) {
   std::unique_lock<std::mutex> lock(mutex_);
   changed_.wait(lock, [this] { return next_ticket_ - next_applied_ < max_pending_; });
   queue_.push_back({next_ticket_++, std::move(input), std::move(done)});
@@ -91,6 +93,12 @@ CloudPipeline::Ready CloudPipeline::prepare(Job job, std::unique_ptr<CloudPrepar
   ready.start = std::chrono::steady_clock::now();
   const double cpu_start = threadCpuSeconds();
   try {
+    if (DeferredCloud* deferred = std::get_if<DeferredCloud>(&job.input)) {
+      SensorCloud cloud;
+      cloud.origin = deferred->origin;
+      deferred->points(&cloud.points);
+      job.input = std::move(cloud);  // from here on like any cloud (applying may need its points)
+    }
     if (const SensorCloud* cloud = std::get_if<SensorCloud>(&job.input)) {
       session_->refreshCloudPreparer(preparer);
       ready.prepared = (*preparer)->prepare(*cloud);

@@ -27,13 +27,13 @@ struct Kind<sensor_msgs::LaserScan> {
   static std::uint64_t& inserted(NodeCounters& c) { return c.scans_inserted; }
   static double& seconds(NodeCounters& c) { return c.scan_insert_seconds; }
   static double& cpuSeconds(NodeCounters& c) { return c.scan_insert_cpu_seconds; }
-  static ScanRejection toCore(const sensor_msgs::LaserScan& m, const Eigen::Isometry3d& pose, Scan* out) {
-    return toCoreScan(m, pose, out);
+  static ScanRejection toCore(const sensor_msgs::LaserScan::ConstPtr& m, const Eigen::Isometry3d& pose, Scan* out) {
+    return toCoreScan(*m, pose, out);
   }
 };
 template <>
 struct Kind<sensor_msgs::PointCloud2> {
-  using Core = SensorCloud;
+  using Core = DeferredCloud;
   static constexpr const char* kName = "point cloud";
   static constexpr const char* kInvalid = "invalid_cloud";
   static std::uint64_t& received(NodeCounters& c) { return c.clouds_received; }
@@ -41,8 +41,17 @@ struct Kind<sensor_msgs::PointCloud2> {
   static std::uint64_t& inserted(NodeCounters& c) { return c.clouds_inserted; }
   static double& seconds(NodeCounters& c) { return c.cloud_insert_seconds; }
   static double& cpuSeconds(NodeCounters& c) { return c.cloud_insert_cpu_seconds; }
-  static ScanRejection toCore(const sensor_msgs::PointCloud2& m, const Eigen::Isometry3d& pose, SensorCloud* out) {
-    return toCoreCloud(m, pose, out);
+  // Only the layout is checked here; the points are converted into the map frame on the cloud
+  // pipeline's worker that prepares the frame (the message is kept alive until then).
+  static ScanRejection toCore(const sensor_msgs::PointCloud2::ConstPtr& m, const Eigen::Isometry3d& pose,
+                              DeferredCloud* out) {
+    const ScanRejection rejection = checkCloudLayout(*m);
+    if (rejection.rejected()) return rejection;
+    out->origin = pose.translation();
+    out->points = [m, to_map = Eigen::Isometry3f(pose.cast<float>())](std::vector<Eigen::Vector3f>* points) {
+      cloudPointsInMap(*m, to_map, points);
+    };
+    return rejection;
   }
 };
 
@@ -297,15 +306,15 @@ void MapperNode::insert(const boost::shared_ptr<const M>& msg, const Eigen::Isom
   if (stampedZero(msg->header)) return;
   checkTimeJump(msg->header.stamp);
   typename Kind<M>::Core core;
-  const ScanRejection rejection = Kind<M>::toCore(*msg, pose, &core);
+  const ScanRejection rejection = Kind<M>::toCore(msg, pose, &core);
   if (rejection.rejected()) {
     skip(rejection.key, rejection.message);
     return;
   }
   const ros::Time stamp = msg->header.stamp;
   if constexpr (std::is_same_v<M, sensor_msgs::PointCloud2>) {
-    // Prepared on the pipeline's workers, frames in parallel, applied in arrival order; this
-    // thread goes back to the scans (it waits only when frames pile up).
+    // Converted and prepared on the pipeline's workers, frames in parallel, applied in arrival
+    // order; this thread goes back to the scans (it waits only when frames pile up).
     cloud_pipeline_->submit(std::move(core), [this, stamp](const CloudPipeline::Outcome& o) { inserted<M>(o, stamp); });
   } else {
     CloudPipeline::Outcome outcome;
