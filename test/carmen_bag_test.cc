@@ -131,9 +131,12 @@ TEST(BagClouds, CloudsComeThroughTheBagsTfInOrderWithTheScans) {
   std::vector<SensorCloud> clouds;
   tools::BagHandlers handlers;
   handlers.scan = [&](const Scan&) { order.push_back('s'); };
-  handlers.cloud = [&](const SensorCloud& c) {
+  handlers.cloud = [&](const DeferredCloud& c) {  // its points made here, as a pipeline's worker would
     order.push_back('c');
-    clouds.push_back(c);
+    SensorCloud made;
+    made.origin = c.origin;
+    c.points(&made.points);
+    clouds.push_back(made);
   };
   std::map<std::string, std::size_t> skipped;
   std::string error;

@@ -30,14 +30,6 @@
 
 namespace octo_slice_mapper {
 
-// A cloud whose points are made by the worker that prepares it, so that the thread that received
-// it only hands it on (the node's conversion of a 640 x 480 PointCloud2 into the map frame is 1-2.5
-// ms that the scans' thread no longer spends).
-struct DeferredCloud {
-  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
-  std::function<void(std::vector<Eigen::Vector3f>*)> points;  // fills in the points, map frame
-};
-
 class CloudPipeline {
  public:
   struct Outcome {

@@ -3,6 +3,7 @@
 
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -40,6 +41,14 @@ class BeamDirections {
 struct SensorCloud {
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();
   std::vector<Eigen::Vector3f> points;
+};
+
+// A cloud whose points are made where it is prepared (a CloudPipeline's worker), so that the
+// thread that received it only hands it on: converting a 640 x 480 PointCloud2 into the map frame
+// is 1-2.5 ms that the node's scan thread no longer spends.
+struct DeferredCloud {
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  std::function<void(std::vector<Eigen::Vector3f>*)> points;  // fills in the points, map frame
 };
 
 // How one reading is interpreted. Invalid readings carry no information and are counted.

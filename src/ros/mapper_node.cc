@@ -42,16 +42,10 @@ struct Kind<sensor_msgs::PointCloud2> {
   static double& seconds(NodeCounters& c) { return c.cloud_insert_seconds; }
   static double& cpuSeconds(NodeCounters& c) { return c.cloud_insert_cpu_seconds; }
   // Only the layout is checked here; the points are converted into the map frame on the cloud
-  // pipeline's worker that prepares the frame (the message is kept alive until then).
+  // pipeline's worker that prepares the frame.
   static ScanRejection toCore(const sensor_msgs::PointCloud2::ConstPtr& m, const Eigen::Isometry3d& pose,
                               DeferredCloud* out) {
-    const ScanRejection rejection = checkCloudLayout(*m);
-    if (rejection.rejected()) return rejection;
-    out->origin = pose.translation();
-    out->points = [m, to_map = Eigen::Isometry3f(pose.cast<float>())](std::vector<Eigen::Vector3f>* points) {
-      cloudPointsInMap(*m, to_map, points);
-    };
-    return rejection;
+    return toDeferredCloud(m, pose, out);
   }
 };
 

@@ -107,6 +107,17 @@ ScanRejection toCoreCloud(const sensor_msgs::PointCloud2& msg, const Eigen::Isom
   return rejection;
 }
 
+ScanRejection toDeferredCloud(const sensor_msgs::PointCloud2::ConstPtr& msg, const Eigen::Isometry3d& sensor_pose,
+                              DeferredCloud* out) {
+  const ScanRejection rejection = checkCloudLayout(*msg);
+  if (rejection.rejected()) return rejection;
+  out->origin = sensor_pose.translation();
+  out->points = [msg, to_map = Eigen::Isometry3f(sensor_pose.cast<float>())](std::vector<Eigen::Vector3f>* points) {
+    cloudPointsInMap(*msg, to_map, points);
+  };
+  return rejection;
+}
+
 sensor_msgs::PointCloud2 organizedCloud(const std::vector<Eigen::Vector3f>& points, int width, int height,
                                         const std::string& frame_id) {
   sensor_msgs::PointCloud2 msg;

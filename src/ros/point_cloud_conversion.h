@@ -30,6 +30,10 @@ void cloudPointsInMap(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry
 
 // Both steps: the layout checked, then the points through `sensor_pose` with the sensor's origin.
 ScanRejection toCoreCloud(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry3d& sensor_pose, SensorCloud* out);
+// The same with the conversion left to whoever prepares the cloud (a CloudPipeline's worker):
+// only the layout is checked now; the message is kept alive by the DeferredCloud.
+ScanRejection toDeferredCloud(const sensor_msgs::PointCloud2::ConstPtr& msg, const Eigen::Isometry3d& sensor_pose,
+                              DeferredCloud* out);
 
 // The other way, as a depth camera's driver sends it: an organized cloud (row by row, x y z
 // FLOAT32, NaN kept), for the simulator, the benchmark and the tests.

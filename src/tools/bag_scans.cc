@@ -37,7 +37,7 @@ void placeAndHandOn(const rosbag::MessageInstance& m, const tf2::BufferCore& buf
     return;
   }
   Core core;
-  const ros_adapter::ScanRejection rejection = convert(*msg, pose, &core);
+  const ros_adapter::ScanRejection rejection = convert(msg, pose, &core);
   if (rejection.rejected()) {
     (*skipped)[rejection.key]++;
     return;
@@ -83,15 +83,15 @@ bool readBag(const std::string& path, const BagTopics& topics, const std::string
       if (!scan_topic.empty() && topic == scan_topic) {
         placeAndHandOn<sensor_msgs::LaserScan, Scan>(
             m, buffer, fixed_frame, "not_a_laser_scan", "no_transform",
-            [](const sensor_msgs::LaserScan& msg, const Eigen::Isometry3d& pose, Scan* out) {
-              return ros_adapter::toCoreScan(msg, pose, out);
+            [](const sensor_msgs::LaserScan::ConstPtr& msg, const Eigen::Isometry3d& pose, Scan* out) {
+              return ros_adapter::toCoreScan(*msg, pose, out);
             },
             handlers.scan, skipped);
       } else {
-        placeAndHandOn<sensor_msgs::PointCloud2, SensorCloud>(
+        placeAndHandOn<sensor_msgs::PointCloud2, DeferredCloud>(
             m, buffer, fixed_frame, "cloud_not_a_point_cloud2", "cloud_no_transform",
-            [](const sensor_msgs::PointCloud2& msg, const Eigen::Isometry3d& pose, SensorCloud* out) {
-              return ros_adapter::toCoreCloud(msg, pose, out);
+            [](const sensor_msgs::PointCloud2::ConstPtr& msg, const Eigen::Isometry3d& pose, DeferredCloud* out) {
+              return ros_adapter::toDeferredCloud(msg, pose, out);
             },
             handlers.cloud, skipped);
       }

@@ -20,7 +20,7 @@ struct BagTopics {
 
 struct BagHandlers {
   std::function<void(const Scan&)> scan;
-  std::function<void(const SensorCloud&)> cloud;
+  std::function<void(const DeferredCloud&)> cloud;  // its points made when asked (on a pipeline's worker)
 };
 
 // False with a reason if the bag can't be read at all or holds nothing on the topics; messages

@@ -196,7 +196,7 @@ class Feeder {
     insert(scan, &intake_->insert_seconds, "invalid_scan", "scan", where,
            [this, beams] { intake_->beams += beams; });
   }
-  void cloud(const osm::SensorCloud& cloud) {
+  void cloud(const osm::DeferredCloud& cloud) {
     insert(cloud, &intake_->cloud_seconds, "cloud_invalid", "cloud", args_.bag, [] {});
   }
   // Waits for what the pipeline still holds (call before reading the map).
@@ -221,10 +221,18 @@ class Feeder {
       return;
     }
     const auto t0 = Clock::now();
-    const osm::InsertResult result = session_->insert(item);
+    const osm::InsertResult result = session_->insert(made(item));
     *seconds += std::chrono::duration<double>(Clock::now() - t0).count();
     if (result.ok()) ok();
     else refused(result, reason, what, where);
+  }
+  // What a session inserts: a scan as it is, a deferred cloud with its points made.
+  static const osm::Scan& made(const osm::Scan& scan) { return scan; }
+  static osm::SensorCloud made(const osm::DeferredCloud& deferred) {
+    osm::SensorCloud cloud;
+    cloud.origin = deferred.origin;
+    deferred.points(&cloud.points);
+    return cloud;
   }
   void refused(const osm::InsertResult& result, const char* reason, const char* what, const std::string& where) {
     intake_->skipped_scans[reason]++;
@@ -278,7 +286,7 @@ int mapBag(const Args& args, Feeder* feed, osm::tools::ProgressBar* bar, Intake*
   osm::tools::BagHandlers handlers;
   std::size_t bag_scans = 0;
   handlers.scan = [&](const osm::Scan& scan) { feed->scan(scan, args.bag + ": scan " + std::to_string(bag_scans++)); };
-  handlers.cloud = [&](const osm::SensorCloud& cloud) { feed->cloud(cloud); };
+  handlers.cloud = [&](const osm::DeferredCloud& cloud) { feed->cloud(cloud); };
   std::string error;
   if (!osm::tools::readBag(args.bag, {args.scan_topic, args.cloud_topic}, args.fixed_frame, handlers,
                            &intake->skipped_scans, &error, [&](double f) { bar->update("mapping bag", f); })) {
