@@ -49,6 +49,13 @@ struct SensorCloud {
 struct DeferredCloud {
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();
   std::function<void(std::vector<Eigen::Vector3f>*)> points;  // fills in the points, map frame
+  // The cloud, its points made now (what `points` throws goes to the caller).
+  SensorCloud made() const {
+    SensorCloud cloud;
+    cloud.origin = origin;
+    points(&cloud.points);
+    return cloud;
+  }
 };
 
 // How one reading is interpreted. Invalid readings carry no information and are counted.

@@ -93,11 +93,8 @@ CloudPipeline::Ready CloudPipeline::prepare(Job job, std::unique_ptr<CloudPrepar
   ready.start = std::chrono::steady_clock::now();
   const double cpu_start = threadCpuSeconds();
   try {
-    if (DeferredCloud* deferred = std::get_if<DeferredCloud>(&job.input)) {
-      SensorCloud cloud;
-      cloud.origin = deferred->origin;
-      deferred->points(&cloud.points);
-      job.input = std::move(cloud);  // from here on like any cloud (applying may need its points)
+    if (const DeferredCloud* deferred = std::get_if<DeferredCloud>(&job.input)) {
+      job.input = deferred->made();  // from here on like any cloud (applying may need its points)
     }
     if (const SensorCloud* cloud = std::get_if<SensorCloud>(&job.input)) {
       session_->refreshCloudPreparer(preparer);

@@ -228,12 +228,7 @@ class Feeder {
   }
   // What a session inserts: a scan as it is, a deferred cloud with its points made.
   static const osm::Scan& made(const osm::Scan& scan) { return scan; }
-  static osm::SensorCloud made(const osm::DeferredCloud& deferred) {
-    osm::SensorCloud cloud;
-    cloud.origin = deferred.origin;
-    deferred.points(&cloud.points);
-    return cloud;
-  }
+  static osm::SensorCloud made(const osm::DeferredCloud& deferred) { return deferred.made(); }
   void refused(const osm::InsertResult& result, const char* reason, const char* what, const std::string& where) {
     intake_->skipped_scans[reason]++;
     if (++intake_->refused_reported <= 20) {
