@@ -126,9 +126,11 @@ def cases(bin_dir, work):
     # before tf used to be looked up only in their turn, after tf (10 s of data; at 20x, 0.5 s)
     # had dropped their stamps: 8-24 skipped in 3 of 3 runs so (CI lost 17 without stalls made).
     # Every scan is inserted: ROS's scan queue (scan_queue_size, 200: 1 s at 20x) outlasts a stall;
-    # at 50 it dropped 0-3 scans silently, out of the node's sight. The map is not compared with
-    # octo_slice_map's: ROS's tf queue (100 messages, 0.1 s at 20x) drops tf in a stall, and poses
-    # interpolated over the gap move a few cells.
+    # at 50 it dropped 0-3 scans silently, out of the node's sight. tf2_ros's listener queue (100
+    # messages, 0.1 s at 20x) dropped tf in a stall, and when that was the bag's first transforms,
+    # 1-4 more scans found none (1 run in 3, session 39): the node's own listener (tf_listener.h)
+    # queues 2000. The map is not compared with octo_slice_map's (while tf was dropped, poses
+    # interpolated across the gaps moved a few cells; not compared since).
     def stalled_replay(name, params_file):
         log = os.path.join(work, f"roslaunch_{name}.txt")
         code, summary = replay(session, bag, name, params_file, log, stall=True)

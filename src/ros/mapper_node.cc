@@ -64,7 +64,7 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
       pnh_(pnh),
       options_(readNodeOptions(pnh)),
       session_(readMapperOptions(pnh), sessionOptionsOf(options_)),
-      tf_listener_(tf_buffer_),
+      tf_listener_(&tf_buffer_),
       publisher_(nh, pnh, options_.frame_id, options_.publish_markers),
       started_(ros::WallTime::now()) {
   if (!options_.map_file.empty()) {

@@ -11,7 +11,6 @@
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/message_filter.h>
-#include <tf2_ros/transform_listener.h>
 
 #include <map>
 #include <memory>
@@ -27,6 +26,7 @@
 #include "ros/node_parameters.h"
 #include "ros/online_pass.h"
 #include "ros/pending_messages.h"
+#include "ros/tf_listener.h"
 #include "ros/sequence_gaps.h"
 
 namespace octo_slice_mapper {
@@ -84,7 +84,7 @@ class MapperNode {
   NodeOptions options_;
   MappingSession session_;
   tf2_ros::Buffer tf_buffer_;
-  tf2_ros::TransformListener tf_listener_;
+  TfListener tf_listener_;
   Input<sensor_msgs::LaserScan> scans_;
   Input<sensor_msgs::PointCloud2> clouds_;
   MapPublisher publisher_;
