@@ -6,6 +6,7 @@ namespace octo_slice_mapper {
 namespace ros_adapter {
 
 TfListener::TfListener(tf2_ros::Buffer* buffer) : buffer_(buffer), spinner_(1, &callbacks_) {
+  buffer_->setUsingDedicatedThread(true);  // as tf2_ros's: lookups may wait, this thread fills it
   nh_.setCallbackQueue(&callbacks_);
   tf_ = nh_.subscribe<tf2_msgs::TFMessage>(
       "/tf", kQueueSize, [this](const ros::MessageEvent<const tf2_msgs::TFMessage>& e) { received(e, false); });
