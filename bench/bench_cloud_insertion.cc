@@ -27,6 +27,8 @@
 #include <octomap/OcTree.h>
 #include <sensor_msgs/PointCloud2.h>
 
+#include <boost/make_shared.hpp>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -37,6 +39,7 @@
 
 #include "bench_common.h"
 #include "octo_slice_mapper/cloud_pipeline.h"
+#include "octo_slice_mapper/held_out_score.h"
 #include "octo_slice_mapper/map_io.h"
 #include "octo_slice_mapper/mapper.h"
 #include "octo_slice_mapper/sim/depth_camera.h"
@@ -49,7 +52,7 @@ namespace {
 
 struct Frame {
   Eigen::Isometry3d optical_in_map;
-  sensor_msgs::PointCloud2 msg;  // in the optical frame, organized
+  sensor_msgs::PointCloud2::ConstPtr msg;  // in the optical frame, organized
   octomap::Pointcloud points;    // its finite points in the map frame (for OctoMap's methods)
   std::size_t valid = 0;
 };
@@ -63,7 +66,8 @@ std::vector<Frame> framesOf(const osm::sim::BoxScene& scene, const Eigen::Vector
     Frame f;
     f.optical_in_map = osm::sim::opticalPose(start + Eigen::Vector3d(0.02 * k, 0.01 * k, 0.0), yaw + 0.0087 * k, pitch);
     const std::vector<Eigen::Vector3f> points = osm::sim::depthFrame(scene, f.optical_in_map, spec, &rng);
-    f.msg = osm::ros_adapter::organizedCloud(points, spec.width, spec.height, "camera_depth_optical_frame");
+    f.msg = boost::make_shared<const sensor_msgs::PointCloud2>(
+        osm::ros_adapter::organizedCloud(points, spec.width, spec.height, "camera_depth_optical_frame"));
     for (const Eigen::Vector3f& p : points) {
       if (!p.allFinite()) continue;
       const Eigen::Vector3d m = f.optical_in_map * p.cast<double>();
@@ -85,13 +89,9 @@ double pipelinedMsPerFrame(const std::vector<Frame>& frames, const osm::MapperOp
     osm::CloudPipeline pipeline(&session, threads, 2 * threads);
     for (const Frame& f : frames) {
       // As the node: the layout checked on this thread, the points converted on the worker.
-      const osm::ros_adapter::ScanRejection rejected = osm::ros_adapter::checkCloudLayout(f.msg);
-      if (rejected.rejected()) std::fprintf(stderr, "rejected: %s\n", rejected.message.c_str());
       osm::DeferredCloud cloud;
-      cloud.origin = f.optical_in_map.translation();
-      cloud.points = [&f](std::vector<Eigen::Vector3f>* points) {
-        osm::ros_adapter::cloudPointsInMap(f.msg, f.optical_in_map.cast<float>(), points);
-      };
+      const osm::ros_adapter::ScanRejection rejected = osm::ros_adapter::toDeferredCloud(f.msg, f.optical_in_map, &cloud);
+      if (rejected.rejected()) std::fprintf(stderr, "rejected: %s\n", rejected.message.c_str());
       pipeline.submit(std::move(cloud), [](const osm::CloudPipeline::Outcome& o) {
         if (!o.result.ok()) std::fprintf(stderr, "refused: %s\n", o.result.error.c_str());
       });
@@ -127,9 +127,9 @@ struct Agreement {
   double sliceSameShare() const { return cells_same / std::max(1.0, double(cells)); }
 };
 
-// map_server's class of a slice value (percent; -1 unknown): 1 occupied, 0 free, -1 unknown.
-int trinary(int value) { return value >= 65 ? 1 : value >= 0 && value <= 19 ? 0 : -1; }
-
+// The reference's voxels by class in the other map, and the navigation slices' cells as map_server
+// reads them (trinaryOf: 100 occupied, 0 free, -1 unknown), the other slice drawn in the
+// reference's frame.
 Agreement agreement(osm::Mapper& reference, osm::Mapper& other) {
   Agreement g;
   const octomap::OcTree& a = reference.tree();
@@ -148,17 +148,21 @@ Agreement agreement(osm::Mapper& reference, osm::Mapper& other) {
       g.occupied_lost += occ;
     }
   }
-  const osm::GridImage s = osm::gridImageOf(reference.slice());
-  for (int j = 0; j < s.height; ++j) {
-    for (int i = 0; i < s.width; ++i) {
-      const int ref = trinary(s.at(i, j));
-      if (ref < 0) continue;
-      const int v = trinary(other.slice().valueAt(s.origin_x + (i + 0.5) * s.resolution, s.origin_y + (j + 0.5) * s.resolution));
+  const osm::GridImage ref = osm::trinaryOf(osm::gridImageOf(reference.slice()));
+  const osm::GridImage mine = osm::trinaryOf(osm::inFrameOf(osm::gridImageOf(other.slice()), ref));
+  // inFrameOf keeps ref's lattice and covers its extent (grown where `other` knows more).
+  const int di = static_cast<int>(std::lround((ref.origin_x - mine.origin_x) / ref.resolution));
+  const int dj = static_cast<int>(std::lround((ref.origin_y - mine.origin_y) / ref.resolution));
+  for (int j = 0; j < ref.height; ++j) {
+    for (int i = 0; i < ref.width; ++i) {
+      const int r = ref.at(i, j);
+      if (r < 0) continue;
+      const int v = mine.at(i + di, j + dj);
       ++g.cells;
-      g.cells_same += v == ref;
-      if (ref == 1) {
+      g.cells_same += v == r;
+      if (r == 100) {
         ++g.occupied_cells;
-        g.occupied_cells_kept += v == 1;
+        g.occupied_cells_kept += v == 100;
       }
     }
   }
@@ -238,7 +242,7 @@ int main(int argc, char** argv) {
     for (int r = 0; r < repeats; ++r) {
       const std::vector<double> run = timeFrames(frames, [&](const Frame& f) {
       const auto t0 = std::chrono::steady_clock::now();
-      const osm::ros_adapter::ScanRejection rejected = osm::ros_adapter::toCoreCloud(f.msg, f.optical_in_map, &cloud);
+      const osm::ros_adapter::ScanRejection rejected = osm::ros_adapter::toCoreCloud(*f.msg, f.optical_in_map, &cloud);
       if (rejected.rejected()) std::fprintf(stderr, "rejected: %s\n", rejected.message.c_str());
       const auto t1 = std::chrono::steady_clock::now();
       mapper.insertPoints(cloud.origin, cloud.points);
@@ -262,14 +266,14 @@ int main(int argc, char** argv) {
     whole_options.insert.cloud_shared_free_run = 0;
     osm::Mapper whole(whole_options);
     const std::vector<double> walked = ours_only ? std::vector<double>{0.0} : timeFrames(frames, [&](const Frame& f) {
-      osm::ros_adapter::toCoreCloud(f.msg, f.optical_in_map, &cloud);
+      osm::ros_adapter::toCoreCloud(*f.msg, f.optical_in_map, &cloud);
       whole.insertPoints(cloud.origin, cloud.points);
     });
     osm::MapperOptions per_point_options = whole_options;
     per_point_options.insert.cloud_one_ray_per_voxel = false;
     osm::Mapper per_point(per_point_options);
     const std::vector<double> each = ours_only ? std::vector<double>{0.0} : timeFrames(frames, [&](const Frame& f) {
-      osm::ros_adapter::toCoreCloud(f.msg, f.optical_in_map, &cloud);
+      osm::ros_adapter::toCoreCloud(*f.msg, f.optical_in_map, &cloud);
       per_point.insertPoints(cloud.origin, cloud.points);
     });
     Agreement vs_per_point, vs_whole;

@@ -525,25 +525,20 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
       if constexpr (std::is_same_v<Cells, ScanEvidence>) {
         if (shared_free_run > 0 && !fanned) {
           // From the end back to the sensor: the end's evidence first, then the free valley until
-          // `shared_free_run` voxels in a row already hold it (the walk's t is from the end: going
-          // forward, a voxel is left where the backward walk entered it).
+          // `shared_free_run` voxels in a row already hold it. Each voxel is judged as the forward
+          // walk judges it: going forward, a voxel is left where the backward walk entered it.
           const std::uint32_t free_word = ScanEvidence::code(weighted_free);
+          const auto judge = visitor(t_lo, t_hi, in_3d);
           double entered = 0.0;
           int run = 0;
           traverseVoxels(*tree_, far, from, ray.far_key, from_key, cells,
                          [&](Index index, double t_exit) __attribute__((always_inline)) {
                            const double forward_exit = 1.0 - entered;
                            entered = t_exit;
-                           if (forward_exit > t_lo && forward_exit < t_hi) {
-                             if (cells.wordAt(index) == free_word) return ++run < shared_free_run;
-                             run = 0;
-                             emit(index, weighted_free);
-                             return true;
-                           }
-                           double along, lateral_sq;
-                           in_3d(cells.keyOf(index), &along, &lateral_sq);
-                           const float value = evidence.at(along, lateral_sq, axis_ray);
-                           if (value != 0.0f) emit(index, value * weight);
+                           const bool free_valley = forward_exit > t_lo && forward_exit < t_hi;
+                           if (free_valley && cells.wordAt(index) == free_word) return ++run < shared_free_run;
+                           run = 0;
+                           judge(index, forward_exit);
                            return true;
                          });
           continue;
