@@ -25,6 +25,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <memory>
 #include <random>
 #include <string>
 #include <thread>
@@ -111,13 +112,13 @@ double msPerScan(const std::vector<osm::Scan>& scans, double resolution, double 
   return ms;
 }
 
-osm::Mapper mapAll(const std::vector<osm::Scan>& scans, double min_z, double max_z) {
+std::unique_ptr<osm::Mapper> mapAll(const std::vector<osm::Scan>& scans, double min_z, double max_z) {
   osm::MapperOptions options;
   options.keep_scans = false;
   options.slice.min_z = min_z;
   options.slice.max_z = max_z;
-  osm::Mapper mapper(options);
-  for (const osm::Scan& s : scans) mapper.insert(s);
+  auto mapper = std::make_unique<osm::Mapper>(options);
+  for (const osm::Scan& s : scans) mapper->insert(s);
   return mapper;
 }
 
@@ -152,17 +153,17 @@ void compareSlices(const char* what, const osm::SliceGrid& reference, const osm:
 }
 
 int sliceReport(const std::vector<osm::Scan>& level, const std::vector<osm::Scan>& tilted, const std::string& dir) {
-  osm::Mapper reference = mapAll(level, 0.16, 0.36);
+  const std::unique_ptr<osm::Mapper> reference = mapAll(level, 0.16, 0.36);
   std::string error;
-  osm::savePng(osm::gridImageOf(reference.slice()), dir + "/tilt_level.png", &error);
+  osm::savePng(osm::gridImageOf(reference->slice()), dir + "/tilt_level.png", &error);
   for (const auto& band : std::vector<std::pair<double, double>>{{0.16, 0.36}, {0.06, 0.46}, {0.0, 0.6}}) {
-    osm::Mapper mapper = mapAll(tilted, band.first, band.second);
+    const std::unique_ptr<osm::Mapper> mapper = mapAll(tilted, band.first, band.second);
     char what[96];
     std::snprintf(what, sizeof what, "tilted, band %.2f-%.2f m:", band.first, band.second);
-    compareSlices(what, reference.slice(), mapper.slice());
+    compareSlices(what, reference->slice(), mapper->slice());
     char name[64];
     std::snprintf(name, sizeof name, "/tilt_band_%.2f_%.2f.png", band.first, band.second);
-    if (!osm::savePng(osm::gridImageOf(mapper.slice()), dir + name, &error)) std::fprintf(stderr, "%s\n", error.c_str());
+    if (!osm::savePng(osm::gridImageOf(mapper->slice()), dir + name, &error)) std::fprintf(stderr, "%s\n", error.c_str());
   }
   return 0;
 }

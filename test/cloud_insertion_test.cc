@@ -12,6 +12,7 @@
 #include "octo_slice_mapper/scan_inserter.h"
 #include "octo_slice_mapper/scan_inserter_inspection.h"
 #include "octo_slice_mapper/sim/depth_camera.h"
+#include "test_helpers.h"
 
 using namespace octo_slice_mapper;
 
@@ -213,6 +214,84 @@ TEST(CloudInsertion, SharedFreeSpaceLosesOnlyAFewFreeUpdatesOfAFrame) {
     std::printf("shared free space: %zu of %zu voxels updated (%.2f %% missed)\n", b.updates.size(), a.updates.size(),
                 100.0 * missed);
   }
+}
+
+// Walking a ray backwards, the model is not asked for a voxel that already holds the free valley
+// where the ray's evidence cannot be above zero: there it cannot change the voxel. The updates are
+// the same, value for value, with the model asked everywhere: full frames of the room (returns
+// and, cut at 2 m, rays that clear only) and of the desk.
+TEST(CloudInsertion, SkippingVoxelsTheFreeValleyHoldsChangesNoUpdate) {
+  const sim::DepthCameraSpec spec;
+  struct Case {
+    Frame frame;
+    double max_range;
+  };
+  for (const Case& c : {Case{frameOf(Eigen::Vector3d(0.3, 0.3, 0.3), 0.7, 0.05, spec, 3), 0.0},
+                        Case{frameOf(Eigen::Vector3d(0.3, 0.3, 0.3), 0.7, 0.05, spec, 3), 2.0},
+                        Case{frameOf(Eigen::Vector3d(2.0, 1.8, 1.0), 0.0, 0.7, spec, 4), 0.0}}) {
+    InsertOptions options;
+    options.cloud_max_range = c.max_range;
+    octomap::OcTree asked_tree(0.05), skipping_tree(0.05);
+    ScanInserter asked(&asked_tree, options), skipping(&skipping_tree, options);
+    ScanInserterInspection(asked).skipSettledVoxels(false);
+    const double half_angle = asked.model().halfAngleFor(0.0);
+    const PreparedCloud a = asked.prepareCloud(c.frame.pose.translation(), c.frame.points, half_angle);
+    const PreparedCloud b = skipping.prepareCloud(c.frame.pose.translation(), c.frame.points, half_angle);
+    ASSERT_TRUE(a.result.ok());
+    ASSERT_GT(a.updates.size(), 5000u);
+    ASSERT_EQ(a.updates.size(), b.updates.size());
+    std::size_t occupied = 0;
+    for (std::size_t i = 0; i < a.updates.size(); ++i) {
+      ASSERT_EQ(a.updates[i].key, b.updates[i].key) << i;
+      ASSERT_EQ(a.updates[i].log_odds, b.updates[i].log_odds) << i;
+      occupied += a.updates[i].log_odds > 0.0f;
+    }
+    // Cut at 2 m, the room's walls are beyond: its rays clear only.
+    if (c.max_range == 0.0) EXPECT_GT(occupied, 100u) << "returns are marked";
+  }
+}
+
+// A frame's changes go to the slice with each voxel's value before and after, so that most
+// columns follow from their own cell: after depth frames (into a fresh map and into one that scans
+// and earlier frames filled, the laser's layer cached), the slice is cell for cell the one a
+// rebuild from the octree gives.
+TEST(CloudInsertion, TheSliceFollowsDepthFramesAsARebuildReadsThem) {
+  MapperOptions options;
+  options.slice.min_z = 0.05;  // the navigation band: the frames reach all of its layers
+  options.slice.max_z = 0.80;
+  Mapper mapper(options);
+  const sim::DepthCameraSpec spec = smallCamera();
+  const auto expect_matches_rebuild = [&](const char* when) {
+    SliceGrid rebuilt(mapper.tree(), mapper.options().slice);
+    rebuilt.rebuild();
+    const SliceGrid& live = mapper.slice();
+    ASSERT_EQ(live.knownCells(), rebuilt.knownCells()) << when;
+    std::size_t occupied = 0;
+    for (int j = 0; j < live.height(); ++j) {
+      for (int i = 0; i < live.width(); ++i) {
+        const double x = live.originX() + (i + 0.5) * live.resolution(), y = live.originY() + (j + 0.5) * live.resolution();
+        ASSERT_EQ(live.at(i, j), rebuilt.valueAt(x, y)) << when << ": " << x << ", " << y;
+        occupied += live.at(i, j) > 65;
+      }
+    }
+    EXPECT_GT(occupied, 20u) << when;
+  };
+  for (int k = 0; k < 4; ++k) {
+    const Frame f = frameOf(Eigen::Vector3d(0.3 + 0.4 * k, 0.3 + 0.2 * k, 0.3), 0.7 - 0.3 * k, 0.1, spec, k + 1);
+    ASSERT_TRUE(mapper.insertPoints(f.pose.translation(), f.points).ok());
+  }
+  expect_matches_rebuild("frames into a fresh map");
+  // A level scan caches the laser's layer; frames then change its voxels through the cache.
+  for (int k = 0; k < 3; ++k) {
+    const Scan scan = test_support::makeScan(test_support::laserPoseOnRobot(0.5 + 0.3 * k, 0.6, 0.5 * k), -1.5f,
+                                             0.01f, std::vector<float>(301, 2.5f));
+    ASSERT_TRUE(mapper.insert(scan).ok());
+  }
+  for (int k = 0; k < 4; ++k) {
+    const Frame f = frameOf(Eigen::Vector3d(1.8 - 0.3 * k, 1.5, 0.3), 3.0 + 0.4 * k, 0.05, spec, k + 11);
+    ASSERT_TRUE(mapper.insertPoints(f.pose.translation(), f.points).ok());
+  }
+  expect_matches_rebuild("frames after scans");
 }
 
 TEST(CloudInsertion, TheFloorClearsButDoesNotMarkAndTheTableTopMarks) {

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <limits>
 #include <random>
 
 #include "octo_slice_mapper/scan_inserter.h"
@@ -11,6 +13,21 @@
 
 using namespace octo_slice_mapper;
 using test_support::expectSameTree;
+
+namespace {
+// The depth of the leaf holding `key` (below the tree's depth: a pruned node).
+unsigned depthOfLeaf(const octomap::OcTree& tree, const octomap::OcTreeKey& key) {
+  const octomap::OcTreeNode* node = tree.getRoot();
+  unsigned depth = 0;
+  while (node && tree.nodeHasChildren(node)) {
+    const unsigned pos = octomap::computeChildIdx(key, static_cast<int>(tree.getTreeDepth() - 1 - depth));
+    if (!tree.nodeChildExists(node, pos)) return depth + 1;  // not held
+    node = tree.getNodeChild(node, pos);
+    ++depth;
+  }
+  return depth;
+}
+}  // namespace
 
 TEST(OctreeBatchUpdate, RandomUpdatesMatchUpdateNodeOneByOne) {
   std::mt19937 rng(3);
@@ -34,6 +51,54 @@ TEST(OctreeBatchUpdate, RandomUpdatesMatchUpdateNodeOneByOne) {
     ASSERT_NO_FATAL_FAILURE(expectSameTree(fast, reference)) << "round " << round;
   }
   EXPECT_GT(reference.getNumLeafNodes(), 1000u);
+}
+
+// What each update did to its voxel, as the slice follows it: the value before (NaN for a voxel
+// the tree did not hold; a pruned voxel's is its parent's) and after, as updateNode leaves them.
+TEST(OctreeBatchUpdate, SortedUpdatesReportWhatEachDidToItsVoxel) {
+  std::mt19937 rng(5);
+  octomap::OcTree fast(0.05), reference(0.05);
+  for (octomap::OcTree* t : {&fast, &reference}) {
+    t->setClampingThresMin(0.12);
+    t->setClampingThresMax(0.97);
+  }
+  std::uniform_int_distribution<int> coord(-12, 12);
+  std::uniform_real_distribution<float> value(-1.0f, 1.5f);
+  std::size_t unknown_before = 0, pruned_before = 0, unchanged = 0;
+  for (int round = 0; round < 40; ++round) {
+    std::vector<KeyUpdate> updates;
+    octomap::KeySet seen;
+    for (int n = 0; n < 2000; ++n) {
+      const octomap::OcTreeKey key = fast.coordToKey(coord(rng) * 0.05, coord(rng) * 0.05, (coord(rng) % 3) * 0.05);
+      if (seen.insert(key).second) updates.push_back({key, value(rng) + (round % 8 < 4 ? 0.8f : -0.8f)});
+    }
+    sortInTreeOrder(&updates);
+    std::vector<VoxelChange> expected;
+    for (const KeyUpdate& u : updates) {
+      const octomap::OcTreeNode* node = reference.search(u.key);
+      const float before = node ? node->getLogOdds() : std::numeric_limits<float>::quiet_NaN();
+      pruned_before += node && depthOfLeaf(reference, u.key) < reference.getTreeDepth();
+      reference.updateNode(u.key, u.log_odds);
+      expected.push_back({before, reference.search(u.key)->getLogOdds()});
+    }
+    std::vector<VoxelChange> changes;
+    applySortedUpdates(&fast, updates, &changes);
+    ASSERT_EQ(changes.size(), updates.size());
+    for (std::size_t i = 0; i < updates.size(); ++i) {
+      if (std::isnan(expected[i].before)) {
+        ASSERT_TRUE(std::isnan(changes[i].before)) << "round " << round << ", update " << i;
+        ++unknown_before;
+      } else {
+        ASSERT_EQ(changes[i].before, expected[i].before) << "round " << round << ", update " << i;
+      }
+      ASSERT_EQ(changes[i].after, expected[i].after) << "round " << round << ", update " << i;
+      unchanged += changes[i].before == changes[i].after;
+    }
+    ASSERT_NO_FATAL_FAILURE(expectSameTree(fast, reference)) << "round " << round;
+  }
+  EXPECT_GT(unknown_before, 1000u);
+  EXPECT_GT(pruned_before, 5u) << "voxels of pruned nodes (expanded by the update)";
+  EXPECT_GT(unchanged, 1000u) << "voxels at their bound stay there";
 }
 
 TEST(OctreeBatchUpdate, SimulatedScansMatchTheReference) {

@@ -81,6 +81,12 @@ class InverseSensorModel {
     return kBehindCutoff * (1.0 + options_.sigma_angle_gain) * sigmaAt(range, 0.0, 1.0);
   }
   static constexpr double kBehindCutoff = 2.0;
+  // A voxel whose centre lies more than this before a return (along the axis, anywhere in the
+  // cone) gets no update above zero: the peak's mass is reckoned from kNoMassBelow sigmas (the
+  // widest, at the cone's edge) before the return, plus the voxel's half-extent.
+  double occupiedMargin(double range) const {
+    return kNoMassBelow * (1.0 + options_.sigma_angle_gain) * sigmaAt(range, 0.0, 1.0) + 0.5 * voxel_size_;
+  }
   // On the axis, points closer than range - pureFreeMargin(range) get exactly logOddsFree().
   double pureFreeMargin(double range) const { return -kPureFreeBelow * sigmaAt(range, 0.0, 1.0); }
   static constexpr double kPureFreeBelow = -8.0;  // in sigmas: F = 1 and G = 0 to float precision

@@ -16,13 +16,6 @@
 
 namespace octo_slice_mapper {
 
-// A voxel's log-odds before and after one update that changed it (`before` a NaN: it had none).
-// The slice needs no other layer of the voxel's column to follow most such changes (SliceGrid).
-struct VoxelChange {
-  float before;
-  float after;
-};
-
 // Holds, per cached z layer, each touched voxel's log-odds exactly as the octree would hold it
 // after the same updates: the per-voxel arithmetic of OctoMap's updateNode (early out at a
 // clamping bound, float add, clamp) is repeated on the cached value, so flushing the values
@@ -99,7 +92,7 @@ class LayerCache {
                    change);
   }
   // The same for a voxel of any layer (cached from now on).
-  bool apply(const octomap::OcTreeKey& key, float update);
+  bool apply(const octomap::OcTreeKey& key, float update, VoxelChange* change = nullptr);
 
   // Log-odds of a voxel of a cached layer: kNotCached when its layer is not cached or the voxel
   // not loaded (then the octree is up to date for it), else kUnknown / kKnown with `value`.

@@ -3,6 +3,7 @@
 
 #include <octomap/OcTree.h>
 
+#include <atomic>
 #include <memory>
 #include <string>
 #include <vector>
@@ -90,8 +91,9 @@ class Mapper {
   // before a reset, load or reconfigure (another geometry or model): insert that cloud anew.
   std::unique_ptr<CloudPreparer> cloudPreparer() const;
   bool insertPrepared(PreparedCloud prepared, std::uint64_t map_generation, InsertResult* result);
-  // Changes whenever the inserter is replaced (reset, load, reconfigure).
-  std::uint64_t inserterGeneration() const { return inserter_generation_; }
+  // Changes whenever the inserter is replaced (reset, load, reconfigure). May be read without the
+  // lock that guards the Mapper (a preparer's check, MappingSession::refreshCloudPreparer).
+  std::uint64_t inserterGeneration() const { return inserter_generation_.load(std::memory_order_acquire); }
   void reset();
   // Replaces the map by a saved .bt/.ot (resolution taken from the file). On failure the
   // current map is kept and false is returned with the reason.
@@ -166,7 +168,7 @@ class Mapper {
   ScanStore store_;
   MapperStats stats_;
   bool lent_ = false;
-  std::uint64_t inserter_generation_ = 0;
+  std::atomic<std::uint64_t> inserter_generation_{0};
 };
 
 }  // namespace octo_slice_mapper

@@ -12,12 +12,27 @@ struct KeyUpdate {
   float log_odds;
 };
 
+// A voxel's log-odds before and after one update that changed it (`before` a NaN: it had none).
+// The slice needs no other layer of the voxel's column to follow most such changes (SliceGrid).
+struct VoxelChange {
+  float before;
+  float after;
+};
+
 // Gives the same tree as calling tree->updateNode(key, log_odds) for each update (same leaves,
 // same log-odds, same clamping, same pruning), but sorts the updates in octree order first and
 // walks each shared path from the root once, instead of twice per voxel (OctoMap's updateNode
 // searches for the leaf, then descends again to change it). Keys must be unique. Reorders
 // `updates`.
 void applyUpdatesInTreeOrder(octomap::OcTree* tree, std::vector<KeyUpdate>* updates);
+
+// Puts updates in the order applySortedUpdates needs (a pure function of the keys: a cloud's
+// updates are sorted while it is prepared, off the map's lock).
+void sortInTreeOrder(std::vector<KeyUpdate>* updates);
+// applyUpdatesInTreeOrder for updates already in that order; with `changes`, changes[i] is what
+// updates[i] did to its voxel (before == after: nothing; the slice follows them, SliceGrid).
+void applySortedUpdates(octomap::OcTree* tree, const std::vector<KeyUpdate>& updates,
+                        std::vector<VoxelChange>* changes = nullptr);
 
 // Sets each key's log-odds to the given value (already within the clamping bounds), creating
 // nodes as needed; the same tree as tree->setNodeValue(key, value) per key. Reorders `values`.

@@ -75,7 +75,7 @@ struct InsertResult {
 // A cloud's per-voxel updates, worked out before they are applied (ScanInserter::prepareCloud).
 struct PreparedCloud {
   InsertResult result;             // its readings counted; error set: refused, nothing to apply
-  std::vector<KeyUpdate> updates;  // combined per voxel, in traversal order
+  std::vector<KeyUpdate> updates;  // combined per voxel, in tree order (sortInTreeOrder)
 };
 
 // One ray with its interpretation, in the map frame.
@@ -153,7 +153,8 @@ class ScanInserter {
   std::vector<KeyUpdate> computeUpdates(const Eigen::Vector3d& origin, const std::vector<Beam>& beams,
                                         double half_angle, int shared_free_run = 0);
 
-  InsertResult apply(std::vector<KeyUpdate> updates, InsertResult result);
+  // `in_tree_order`: the updates are sorted already (sortInTreeOrder).
+  InsertResult apply(std::vector<KeyUpdate> updates, InsertResult result, bool in_tree_order = false);
   InsertResult insertIntoLayers(const Eigen::Vector3d& origin, const std::vector<Beam>& beams, double half_angle,
                                 InsertResult result);
   KeyBox prepareBeams(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
@@ -194,6 +195,9 @@ class ScanInserter {
   std::size_t max_visits_ = 0;          // bounds how many voxels the rays visit
   std::uint64_t beams_outside_ = 0;     // the current scan's beams ending outside the octree
   std::vector<KeyUpdate> beam_evidence_;  // a fanned beam's evidence before it is combined
+  // A cloud ray walked backwards does not ask the model for a voxel that holds the free valley
+  // already where no evidence above zero can come (traceBeams); off only to check that it changes nothing.
+  bool skip_settled_voxels_ = true;
   std::optional<InverseSensorModel::ConeTable> cone_;  // for the last half-angle seen
   BeamDirections directions_;  // for the last scan geometry seen
 

@@ -42,6 +42,9 @@ class ScanInserterInspection {
                                         double half_angle) {
     return inserter_.computeUpdates(origin, beams, half_angle);
   }
+  // Whether a cloud's backward walk skips voxels its evidence cannot change (on by default): off,
+  // the model is asked for them too, and the updates must be the same.
+  void skipSettledVoxels(bool on) { inserter_.skip_settled_voxels_ = on; }
 
  private:
   ScanInserter& inserter_;

@@ -112,10 +112,10 @@ bool LayerCache::applyTo(const Ref& ref, float update, VoxelChange* change) {
   return true;
 }
 
-bool LayerCache::apply(const octomap::OcTreeKey& key, float update) {
+bool LayerCache::apply(const octomap::OcTreeKey& key, float update, VoxelChange* change) {
   Layer& l = layer(key[2]);
   cover(&l, key[0], key[1], key[0], key[1]);
-  return apply(l, key[0], key[1], update);
+  return apply(l, key[0], key[1], update, change);
 }
 
 LayerCache::Lookup LayerCache::lookup(unsigned kx, unsigned ky, unsigned kz, float* value) const {

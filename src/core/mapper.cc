@@ -50,7 +50,7 @@ void Mapper::install(std::unique_ptr<octomap::OcTree> tree, const MapperOptions&
   if (tree) tree_ = std::move(tree);
   inserter_ = std::move(inserter);
   slice_ = std::move(slice);
-  inserter_generation_++;
+  inserter_generation_.fetch_add(1, std::memory_order_release);
 }
 
 InsertResult Mapper::insert(const Scan& scan) {
@@ -82,11 +82,11 @@ PreparedCloud CloudPreparer::prepare(const SensorCloud& cloud) {
 }
 
 std::unique_ptr<CloudPreparer> Mapper::cloudPreparer() const {
-  return std::make_unique<CloudPreparer>(tree_->getResolution(), options_.insert, inserter_generation_);
+  return std::make_unique<CloudPreparer>(tree_->getResolution(), options_.insert, inserterGeneration());
 }
 
 bool Mapper::insertPrepared(PreparedCloud prepared, std::uint64_t map_generation, InsertResult* result) {
-  if (map_generation != inserter_generation_) return false;
+  if (map_generation != inserterGeneration()) return false;
   *result = record(inserter_->applyCloud(std::move(prepared)), /*cloud=*/true);
   return true;
 }

@@ -1,6 +1,7 @@
 #include "octo_slice_mapper/octree_batch_update.h"
 
 #include <cstdint>
+#include <limits>
 
 namespace octo_slice_mapper {
 namespace {
@@ -17,6 +18,8 @@ std::uint64_t treeOrder(const octomap::OcTreeKey& k) {
   };
   return spread(k[0]) | (spread(k[1]) << 1) | (spread(k[2]) << 2);
 }
+
+}  // namespace
 
 // LSD radix sort on the Morton codes. The keys of one scan share most high bits, so only the
 // few bytes that differ are sorted (usually 3 of 6): far cheaper than a comparison sort.
@@ -45,11 +48,14 @@ void sortInTreeOrder(std::vector<KeyUpdate>* updates) {
   }
 }
 
+namespace {
+
 struct Batch {
   octomap::OcTree* tree;
   const std::vector<KeyUpdate>* updates;
   unsigned depth_max;
   bool set;  // log_odds are values to set, not to add
+  std::vector<VoxelChange>* changes;  // per update, or null
 };
 
 // Mirrors OccupancyOcTreeBase::updateNodeRecurs for all updates of [begin, end), which all lie
@@ -58,11 +64,13 @@ void applyRecurs(const Batch& b, octomap::OcTreeNode* node, bool node_just_creat
                  std::size_t begin, std::size_t end) {
   octomap::OcTree& tree = *b.tree;
   if (depth == b.depth_max) {
+    const float before = node_just_created ? std::numeric_limits<float>::quiet_NaN() : node->getLogOdds();
     if (b.set) {
       node->setLogOdds((*b.updates)[begin].log_odds);
     } else {
       tree.updateNodeLogOdds(node, (*b.updates)[begin].log_odds);
     }
+    if (b.changes) (*b.changes)[begin] = {before, node->getLogOdds()};
     return;
   }
   const unsigned bit = b.depth_max - 1 - depth;
@@ -86,34 +94,40 @@ void applyRecurs(const Batch& b, octomap::OcTreeNode* node, bool node_just_creat
   if (!tree.pruneNode(node)) node->updateOccupancyChildren();
 }
 
-void applyInTreeOrder(octomap::OcTree* tree, std::vector<KeyUpdate>* updates, bool set) {
-  if (updates->empty()) return;
-  sortInTreeOrder(updates);
+// `updates` in tree order.
+void applySorted(octomap::OcTree* tree, const std::vector<KeyUpdate>& updates, bool set,
+                 std::vector<VoxelChange>* changes) {
+  if (changes) changes->resize(updates.size());
+  if (updates.empty()) return;
   std::size_t first = 0;
   if (!tree->getRoot()) {
     // Only updateNode / setNodeValue can create the root; the rest then goes below it.
-    const KeyUpdate& u = (*updates)[0];
-    if (set) {
-      tree->setNodeValue(u.key, u.log_odds);
-    } else {
-      tree->updateNode(u.key, u.log_odds);
-    }
+    const KeyUpdate& u = updates[0];
+    const octomap::OcTreeNode* node = set ? tree->setNodeValue(u.key, u.log_odds) : tree->updateNode(u.key, u.log_odds);
+    if (changes) (*changes)[0] = {std::numeric_limits<float>::quiet_NaN(), node->getLogOdds()};
     first = 1;
   }
-  if (first < updates->size()) {
-    const Batch batch{tree, updates, tree->getTreeDepth(), set};
-    applyRecurs(batch, tree->getRoot(), false, 0, first, updates->size());
+  if (first < updates.size()) {
+    const Batch batch{tree, &updates, tree->getTreeDepth(), set, changes};
+    applyRecurs(batch, tree->getRoot(), false, 0, first, updates.size());
   }
 }
 
 }  // namespace
 
 void applyUpdatesInTreeOrder(octomap::OcTree* tree, std::vector<KeyUpdate>* updates) {
-  applyInTreeOrder(tree, updates, false);
+  sortInTreeOrder(updates);
+  applySorted(tree, *updates, false, nullptr);
+}
+
+void applySortedUpdates(octomap::OcTree* tree, const std::vector<KeyUpdate>& updates,
+                        std::vector<VoxelChange>* changes) {
+  applySorted(tree, updates, false, changes);
 }
 
 void setValuesInTreeOrder(octomap::OcTree* tree, std::vector<KeyUpdate>* values) {
-  applyInTreeOrder(tree, values, true);
+  sortInTreeOrder(values);
+  applySorted(tree, *values, true, nullptr);
 }
 
 void applyUpdatesOneByOne(octomap::OcTree* tree, const std::vector<KeyUpdate>& updates) {
