@@ -1,5 +1,6 @@
 #include "octo_slice_mapper/octree_batch_update.h"
 
+#include <algorithm>
 #include <cstdint>
 #include <limits>
 
@@ -21,31 +22,73 @@ std::uint64_t treeOrder(const octomap::OcTreeKey& k) {
 
 }  // namespace
 
-// LSD radix sort on the Morton codes. The keys of one scan share most high bits, so only the
-// few bytes that differ are sorted (usually 3 of 6): far cheaper than a comparison sort.
+namespace {
+
+// LSD radix sort of n codes and their updates on the bytes that differ among them (`differing`),
+// through the scratch arrays; the result ends in `codes` / `updates`.
+void radixSort(std::uint64_t* codes, KeyUpdate* updates, std::uint64_t* codes_tmp, KeyUpdate* tmp, std::size_t n,
+               std::uint64_t differing) {
+  std::uint64_t *from_codes = codes, *to_codes = codes_tmp;
+  KeyUpdate *from = updates, *to = tmp;
+  for (unsigned shift = 0; shift < 48; shift += 8) {
+    if (((differing >> shift) & 0xFF) == 0) continue;  // this byte is the same everywhere
+    std::size_t count[257] = {0};
+    for (std::size_t i = 0; i < n; ++i) ++count[((from_codes[i] >> shift) & 0xFF) + 1];
+    for (int b = 0; b < 256; ++b) count[b + 1] += count[b];
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::size_t dst = count[(from_codes[i] >> shift) & 0xFF]++;
+      to_codes[dst] = from_codes[i];
+      to[dst] = from[i];
+    }
+    std::swap(from_codes, to_codes);
+    std::swap(from, to);
+  }
+  if (from != updates) {
+    std::copy(from_codes, from_codes + n, codes);
+    std::copy(from, from + n, updates);
+  }
+}
+
+// Sorts [0, n) by code. Where the codes differ in more than three bytes, they are split by their
+// highest differing bit first: keys on both sides of a power of two (a frame's floor at z = 0
+// straddles the tree's centre key) differ in every bit above it, but within each side in a few.
+void sortByCode(std::uint64_t* codes, KeyUpdate* updates, std::uint64_t* codes_tmp, KeyUpdate* tmp, std::size_t n) {
+  if (n < 2) return;
+  std::uint64_t all_or = 0, all_and = ~std::uint64_t{0};
+  for (std::size_t i = 0; i < n; ++i) all_or |= codes[i], all_and &= codes[i];
+  const std::uint64_t differing = all_or ^ all_and;
+  if (differing == 0) return;
+  unsigned bytes = 0;
+  for (unsigned shift = 0; shift < 48; shift += 8) bytes += ((differing >> shift) & 0xFF) != 0;
+  if (bytes <= 3) {
+    radixSort(codes, updates, codes_tmp, tmp, n, differing);
+    return;
+  }
+  const std::uint64_t top = std::uint64_t{1} << (63 - __builtin_clzll(differing));
+  std::size_t zeros = 0;  // a stable split: those without the bit first
+  for (std::size_t i = 0; i < n; ++i) zeros += (codes[i] & top) == 0;
+  std::size_t lo = 0, hi = zeros;
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::size_t dst = (codes[i] & top) ? hi++ : lo++;
+    codes_tmp[dst] = codes[i];
+    tmp[dst] = updates[i];
+  }
+  std::copy(codes_tmp, codes_tmp + n, codes);
+  std::copy(tmp, tmp + n, updates);
+  sortByCode(codes, updates, codes_tmp, tmp, zeros);
+  sortByCode(codes + zeros, updates + zeros, codes_tmp, tmp, n - zeros);
+}
+
+}  // namespace
+
+// Radix sort on the Morton codes. The keys of one scan share most high bits, so only the few
+// bytes that differ are sorted (usually 3 of 6): far cheaper than a comparison sort.
 void sortInTreeOrder(std::vector<KeyUpdate>* updates) {
   const std::size_t n = updates->size();
   std::vector<std::uint64_t> codes(n), codes_tmp(n);
   std::vector<KeyUpdate> tmp(n);
-  std::uint64_t all_or = 0, all_and = ~std::uint64_t{0};
-  for (std::size_t i = 0; i < n; ++i) {
-    codes[i] = treeOrder((*updates)[i].key);
-    all_or |= codes[i];
-    all_and &= codes[i];
-  }
-  for (unsigned shift = 0; shift < 48; shift += 8) {
-    if ((((all_or ^ all_and) >> shift) & 0xFF) == 0) continue;  // this byte is the same everywhere
-    std::size_t count[257] = {0};
-    for (std::size_t i = 0; i < n; ++i) ++count[((codes[i] >> shift) & 0xFF) + 1];
-    for (int b = 0; b < 256; ++b) count[b + 1] += count[b];
-    for (std::size_t i = 0; i < n; ++i) {
-      const std::size_t dst = count[(codes[i] >> shift) & 0xFF]++;
-      codes_tmp[dst] = codes[i];
-      tmp[dst] = (*updates)[i];
-    }
-    codes.swap(codes_tmp);
-    updates->swap(tmp);
-  }
+  for (std::size_t i = 0; i < n; ++i) codes[i] = treeOrder((*updates)[i].key);
+  sortByCode(codes.data(), updates->data(), codes_tmp.data(), tmp.data(), n);
 }
 
 namespace {
@@ -73,12 +116,25 @@ void applyRecurs(const Batch& b, octomap::OcTreeNode* node, bool node_just_creat
     if (b.changes) (*b.changes)[begin] = {before, node->getLogOdds()};
     return;
   }
-  const unsigned bit = b.depth_max - 1 - depth;
+  const int bit = static_cast<int>(b.depth_max - 1 - depth);
+  const std::vector<KeyUpdate>& u = *b.updates;
   std::size_t i = begin;
   while (i < end) {
-    const unsigned pos = octomap::computeChildIdx((*b.updates)[i].key, static_cast<int>(bit));
+    const unsigned pos = octomap::computeChildIdx(u[i].key, bit);
+    // The end of this child's updates: in tree order the child index never falls within a node,
+    // so the end is found by galloping and bisection (near the root every update goes to one
+    // child, and a scan past all of them per level was a third of applying a depth frame).
     std::size_t j = i + 1;
-    while (j < end && octomap::computeChildIdx((*b.updates)[j].key, static_cast<int>(bit)) == pos) ++j;
+    if (j < end && octomap::computeChildIdx(u[j].key, bit) == pos) {
+      std::size_t step = 1, lo = j;  // u[lo] is this child's
+      while (lo + step < end && octomap::computeChildIdx(u[lo + step].key, bit) == pos) lo += step, step *= 2;
+      std::size_t hi = std::min(lo + step, end);  // the first past lo not known to be this child's
+      while (hi - lo > 1) {
+        const std::size_t mid = lo + (hi - lo) / 2;
+        (octomap::computeChildIdx(u[mid].key, bit) == pos ? lo : hi) = mid;
+      }
+      j = hi;
+    }
     bool created = false;
     if (!tree.nodeChildExists(node, pos)) {
       if (!tree.nodeHasChildren(node) && !node_just_created) {
