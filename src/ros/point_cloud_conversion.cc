@@ -79,21 +79,50 @@ ScanRejection checkCloudLayout(const sensor_msgs::PointCloud2& msg) {
   return {};
 }
 
+namespace {
+
+// The points of rows [0, msg.height) read with `read(point_bytes)`, in the map frame.
+template <typename Read>
+void transformPoints(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry3f& to_map, Read read,
+                     Eigen::Vector3f* out) {
+  // The rotation and translation apart: Eigen's Isometry3f product took a third more time (and
+  // rounds some coordinates differently in the last bit).
+  const Eigen::Matrix3f rotation = to_map.linear();
+  const Eigen::Vector3f translation = to_map.translation();
+  const Eigen::Vector3f nan = Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN());
+  for (std::uint32_t row = 0; row < msg.height; ++row) {
+    const std::uint8_t* p = msg.data.data() + std::size_t(row) * msg.row_step;
+    for (std::uint32_t col = 0; col < msg.width; ++col, p += msg.point_step) {
+      const Eigen::Vector3f v = read(p);
+      // A non-finite point stays so (the transform would mix NaN into the other coordinates anyway).
+      *out++ = v.allFinite() ? Eigen::Vector3f(rotation * v + translation) : nan;
+    }
+  }
+}
+
+}  // namespace
+
 void cloudPointsInMap(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry3f& to_map,
                       std::vector<Eigen::Vector3f>* points) {
   const sensor_msgs::PointField& fx = *fieldNamed(msg, "x");
   const sensor_msgs::PointField& fy = *fieldNamed(msg, "y");
   const sensor_msgs::PointField& fz = *fieldNamed(msg, "z");
-  points->clear();
-  points->reserve(std::size_t(msg.width) * msg.height);
-  for (std::uint32_t row = 0; row < msg.height; ++row) {
-    const std::uint8_t* p = msg.data.data() + std::size_t(row) * msg.row_step;
-    for (std::uint32_t col = 0; col < msg.width; ++col, p += msg.point_step) {
-      const Eigen::Vector3f v(coordinate(p, fx), coordinate(p, fy), coordinate(p, fz));
-      // A non-finite point stays so (the transform would mix NaN into the other coordinates anyway).
-      points->push_back(v.allFinite() ? Eigen::Vector3f(to_map * v)
-                                      : Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
-    }
+  points->resize(std::size_t(msg.width) * msg.height);
+  const bool all_float = fx.datatype == sensor_msgs::PointField::FLOAT32 &&
+                         fy.datatype == sensor_msgs::PointField::FLOAT32 && fz.datatype == sensor_msgs::PointField::FLOAT32;
+  if (all_float) {  // what cameras send: no per-coordinate type test (a third of the conversion)
+    const std::uint32_t ox = fx.offset, oy = fy.offset, oz = fz.offset;
+    transformPoints(msg, to_map, [ox, oy, oz](const std::uint8_t* p) {
+      float x, y, z;
+      std::memcpy(&x, p + ox, sizeof x);
+      std::memcpy(&y, p + oy, sizeof y);
+      std::memcpy(&z, p + oz, sizeof z);
+      return Eigen::Vector3f(x, y, z);
+    }, points->data());
+  } else {
+    transformPoints(msg, to_map, [&](const std::uint8_t* p) {
+      return Eigen::Vector3f(coordinate(p, fx), coordinate(p, fy), coordinate(p, fz));
+    }, points->data());
   }
 }
 
