@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <limits>
+#include <algorithm>
 #include <random>
 
 #include "octo_slice_mapper/scan_inserter.h"
@@ -51,6 +52,44 @@ TEST(OctreeBatchUpdate, RandomUpdatesMatchUpdateNodeOneByOne) {
     ASSERT_NO_FATAL_FAILURE(expectSameTree(fast, reference)) << "round " << round;
   }
   EXPECT_GT(reference.getNumLeafNodes(), 1000u);
+}
+
+// The tree order is the Morton order of the keys (OctoMap's child index from the root down):
+// checked against a comparison sort on keys on one side of the tree's centre key, straddling it in
+// one axis (a depth frame's floor at z = 0) or in all three, and spread over the whole key range.
+TEST(OctreeBatchUpdate, SortInTreeOrderIsTheMortonOrderOnBothSidesOfTheCentreKey) {
+  const auto morton = [](const octomap::OcTreeKey& k) {
+    std::uint64_t code = 0;
+    for (int bit = 15; bit >= 0; --bit) {
+      code = (code << 3) | octomap::computeChildIdx(k, bit);
+    }
+    return code;
+  };
+  std::mt19937 rng(9);
+  struct Spread {
+    int lo_xy, hi_xy, lo_z, hi_z;
+  };
+  for (const Spread& spread : {Spread{10, 90, 3, 40}, Spread{10, 90, -2, 40}, Spread{-50, 50, -20, 20},
+                               Spread{-32000, 32000, -32000, 32000}, Spread{0, 0, 0, 0}}) {
+    for (const std::size_t n : {std::size_t{1}, std::size_t{2}, std::size_t{7}, std::size_t{5000}}) {
+      std::uniform_int_distribution<int> xy(spread.lo_xy, spread.hi_xy), z(spread.lo_z, spread.hi_z);
+      std::vector<KeyUpdate> updates;
+      for (std::size_t i = 0; i < n; ++i) {
+        const octomap::OcTreeKey key(static_cast<std::uint16_t>(32768 + xy(rng)), static_cast<std::uint16_t>(32768 + xy(rng)),
+                                     static_cast<std::uint16_t>(32768 + z(rng)));
+        updates.push_back({key, static_cast<float>(i)});  // the value tells each update apart
+      }
+      std::vector<KeyUpdate> expected = updates;
+      std::stable_sort(expected.begin(), expected.end(),
+                       [&](const KeyUpdate& a, const KeyUpdate& b) { return morton(a.key) < morton(b.key); });
+      sortInTreeOrder(&updates);
+      ASSERT_EQ(updates.size(), expected.size());
+      for (std::size_t i = 0; i < n; ++i) {
+        ASSERT_EQ(updates[i].key, expected[i].key) << "spread " << spread.lo_xy << ".." << spread.hi_xy << ", n " << n;
+        ASSERT_EQ(updates[i].log_odds, expected[i].log_odds) << "the sort is stable";
+      }
+    }
+  }
 }
 
 // What each update did to its voxel, as the slice follows it: the value before (NaN for a voxel

@@ -20,52 +20,41 @@ std::uint64_t treeOrder(const octomap::OcTreeKey& k) {
   return spread(k[0]) | (spread(k[1]) << 1) | (spread(k[2]) << 2);
 }
 
-}  // namespace
-
-namespace {
-
 // LSD radix sort of n codes and their updates on the bytes that differ among them (`differing`),
-// through the scratch arrays; the result ends in `codes` / `updates`.
-void radixSort(std::uint64_t* codes, KeyUpdate* updates, std::uint64_t* codes_tmp, KeyUpdate* tmp, std::size_t n,
+// passing between (codes, updates) and the scratch arrays: true if the result ends in the scratch.
+bool radixSort(std::uint64_t* codes, KeyUpdate* updates, std::uint64_t* codes_tmp, KeyUpdate* tmp, std::size_t n,
                std::uint64_t differing) {
-  std::uint64_t *from_codes = codes, *to_codes = codes_tmp;
-  KeyUpdate *from = updates, *to = tmp;
+  bool in_scratch = false;
   for (unsigned shift = 0; shift < 48; shift += 8) {
     if (((differing >> shift) & 0xFF) == 0) continue;  // this byte is the same everywhere
     std::size_t count[257] = {0};
-    for (std::size_t i = 0; i < n; ++i) ++count[((from_codes[i] >> shift) & 0xFF) + 1];
+    for (std::size_t i = 0; i < n; ++i) ++count[((codes[i] >> shift) & 0xFF) + 1];
     for (int b = 0; b < 256; ++b) count[b + 1] += count[b];
     for (std::size_t i = 0; i < n; ++i) {
-      const std::size_t dst = count[(from_codes[i] >> shift) & 0xFF]++;
-      to_codes[dst] = from_codes[i];
-      to[dst] = from[i];
+      const std::size_t dst = count[(codes[i] >> shift) & 0xFF]++;
+      codes_tmp[dst] = codes[i];
+      tmp[dst] = updates[i];
     }
-    std::swap(from_codes, to_codes);
-    std::swap(from, to);
+    std::swap(codes, codes_tmp);
+    std::swap(updates, tmp);
+    in_scratch = !in_scratch;
   }
-  if (from != updates) {
-    std::copy(from_codes, from_codes + n, codes);
-    std::copy(from, from + n, updates);
-  }
+  return in_scratch;
 }
 
-// Sorts [0, n) by code. Where the codes differ in more than three bytes, they are split by their
-// highest differing bit first: keys on both sides of a power of two (a frame's floor at z = 0
-// straddles the tree's centre key) differ in every bit above it, but within each side in a few.
-void sortByCode(std::uint64_t* codes, KeyUpdate* updates, std::uint64_t* codes_tmp, KeyUpdate* tmp, std::size_t n) {
-  if (n < 2) return;
+// Sorts n codes by value, with their updates; true if the result ends in the scratch arrays.
+// Where the codes differ in more than three bytes, they are split by their highest differing bit
+// first: keys on both sides of a power of two (a frame's floor at z = 0 straddles the tree's
+// centre key) differ in every bit above it, but within each side in a few.
+bool sortByCode(std::uint64_t* codes, KeyUpdate* updates, std::uint64_t* codes_tmp, KeyUpdate* tmp, std::size_t n) {
   std::uint64_t all_or = 0, all_and = ~std::uint64_t{0};
   for (std::size_t i = 0; i < n; ++i) all_or |= codes[i], all_and &= codes[i];
-  const std::uint64_t differing = all_or ^ all_and;
-  if (differing == 0) return;
+  const std::uint64_t differing = n < 2 ? 0 : all_or ^ all_and;
   unsigned bytes = 0;
   for (unsigned shift = 0; shift < 48; shift += 8) bytes += ((differing >> shift) & 0xFF) != 0;
-  if (bytes <= 3) {
-    radixSort(codes, updates, codes_tmp, tmp, n, differing);
-    return;
-  }
+  if (bytes <= 3) return radixSort(codes, updates, codes_tmp, tmp, n, differing);
   const std::uint64_t top = std::uint64_t{1} << (63 - __builtin_clzll(differing));
-  std::size_t zeros = 0;  // a stable split: those without the bit first
+  std::size_t zeros = 0;  // a stable split into the scratch: those without the bit first
   for (std::size_t i = 0; i < n; ++i) zeros += (codes[i] & top) == 0;
   std::size_t lo = 0, hi = zeros;
   for (std::size_t i = 0; i < n; ++i) {
@@ -73,10 +62,16 @@ void sortByCode(std::uint64_t* codes, KeyUpdate* updates, std::uint64_t* codes_t
     codes_tmp[dst] = codes[i];
     tmp[dst] = updates[i];
   }
-  std::copy(codes_tmp, codes_tmp + n, codes);
-  std::copy(tmp, tmp + n, updates);
-  sortByCode(codes, updates, codes_tmp, tmp, zeros);
-  sortByCode(codes + zeros, updates + zeros, codes_tmp, tmp, n - zeros);
+  // Each side sorted from the scratch; both must end in the same arrays.
+  const bool low_back = sortByCode(codes_tmp, tmp, codes, updates, zeros);
+  const bool high_back = sortByCode(codes_tmp + zeros, tmp + zeros, codes + zeros, updates + zeros, n - zeros);
+  if (low_back != high_back) {  // move the high side next to the low one
+    std::uint64_t* from_codes = high_back ? codes + zeros : codes_tmp + zeros;
+    KeyUpdate* from = high_back ? updates + zeros : tmp + zeros;
+    std::copy(from_codes, from_codes + (n - zeros), (high_back ? codes_tmp : codes) + zeros);
+    std::copy(from, from + (n - zeros), (high_back ? tmp : updates) + zeros);
+  }
+  return !low_back;  // the low side's result is in the scratch unless it came back
 }
 
 }  // namespace
@@ -88,7 +83,7 @@ void sortInTreeOrder(std::vector<KeyUpdate>* updates) {
   std::vector<std::uint64_t> codes(n), codes_tmp(n);
   std::vector<KeyUpdate> tmp(n);
   for (std::size_t i = 0; i < n; ++i) codes[i] = treeOrder((*updates)[i].key);
-  sortByCode(codes.data(), updates->data(), codes_tmp.data(), tmp.data(), n);
+  if (sortByCode(codes.data(), updates->data(), codes_tmp.data(), tmp.data(), n)) updates->swap(tmp);
 }
 
 namespace {
