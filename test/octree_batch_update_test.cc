@@ -28,25 +28,38 @@ unsigned depthOfLeaf(const octomap::OcTree& tree, const octomap::OcTreeKey& key)
   }
   return depth;
 }
+
+// Clamping bounds close enough that random updates saturate voxels and get nodes pruned.
+void useTightClamping(octomap::OcTree* fast, octomap::OcTree* reference) {
+  for (octomap::OcTree* t : {fast, reference}) {
+    t->setClampingThresMin(0.12);
+    t->setClampingThresMax(0.97);
+  }
+}
+
+// Updates of unique keys drawn in a small volume (x, y within `reach` voxels of the origin, z
+// within `z_layers` - 1), each a random value plus `bias`, so that nodes fill up, saturate, get
+// pruned and expanded again over rounds.
+std::vector<KeyUpdate> randomUniqueUpdates(std::mt19937* rng, const octomap::OcTree& tree, int reach, int z_layers,
+                                           int draws, float bias) {
+  std::uniform_int_distribution<int> coord(-reach, reach);
+  std::uniform_real_distribution<float> value(-1.0f, 1.5f);
+  std::vector<KeyUpdate> updates;
+  octomap::KeySet seen;
+  for (int n = 0; n < draws; ++n) {
+    const octomap::OcTreeKey key = tree.coordToKey(coord(*rng) * 0.05, coord(*rng) * 0.05, (coord(*rng) % z_layers) * 0.05);
+    if (seen.insert(key).second) updates.push_back({key, value(*rng) + bias});
+  }
+  return updates;
+}
 }  // namespace
 
 TEST(OctreeBatchUpdate, RandomUpdatesMatchUpdateNodeOneByOne) {
   std::mt19937 rng(3);
   octomap::OcTree fast(0.05), reference(0.05);
-  for (octomap::OcTree* t : {&fast, &reference}) {
-    t->setClampingThresMin(0.12);
-    t->setClampingThresMax(0.97);
-  }
-  std::uniform_int_distribution<int> coord(-20, 20);
-  std::uniform_real_distribution<float> value(-1.0f, 1.5f);
+  useTightClamping(&fast, &reference);
   for (int round = 0; round < 60; ++round) {
-    // Unique keys in a small volume, so nodes fill up, saturate, get pruned and expanded again.
-    std::vector<KeyUpdate> updates;
-    octomap::KeySet seen;
-    for (int n = 0; n < 3000; ++n) {
-      const octomap::OcTreeKey key = fast.coordToKey(coord(rng) * 0.05, coord(rng) * 0.05, (coord(rng) % 4) * 0.05);
-      if (seen.insert(key).second) updates.push_back({key, value(rng) + (round % 10 < 5 ? 0.8f : -0.8f)});
-    }
+    std::vector<KeyUpdate> updates = randomUniqueUpdates(&rng, fast, 20, 4, 3000, round % 10 < 5 ? 0.8f : -0.8f);
     applyUpdatesOneByOne(&reference, updates);
     applyUpdatesInTreeOrder(&fast, &updates);
     ASSERT_NO_FATAL_FAILURE(expectSameTree(fast, reference)) << "round " << round;
@@ -97,20 +110,10 @@ TEST(OctreeBatchUpdate, SortInTreeOrderIsTheMortonOrderOnBothSidesOfTheCentreKey
 TEST(OctreeBatchUpdate, SortedUpdatesReportWhatEachDidToItsVoxel) {
   std::mt19937 rng(5);
   octomap::OcTree fast(0.05), reference(0.05);
-  for (octomap::OcTree* t : {&fast, &reference}) {
-    t->setClampingThresMin(0.12);
-    t->setClampingThresMax(0.97);
-  }
-  std::uniform_int_distribution<int> coord(-12, 12);
-  std::uniform_real_distribution<float> value(-1.0f, 1.5f);
+  useTightClamping(&fast, &reference);
   std::size_t unknown_before = 0, pruned_before = 0, unchanged = 0;
   for (int round = 0; round < 40; ++round) {
-    std::vector<KeyUpdate> updates;
-    octomap::KeySet seen;
-    for (int n = 0; n < 2000; ++n) {
-      const octomap::OcTreeKey key = fast.coordToKey(coord(rng) * 0.05, coord(rng) * 0.05, (coord(rng) % 3) * 0.05);
-      if (seen.insert(key).second) updates.push_back({key, value(rng) + (round % 8 < 4 ? 0.8f : -0.8f)});
-    }
+    std::vector<KeyUpdate> updates = randomUniqueUpdates(&rng, fast, 12, 3, 2000, round % 8 < 4 ? 0.8f : -0.8f);
     sortInTreeOrder(&updates);
     std::vector<VoxelChange> expected;
     for (const KeyUpdate& u : updates) {
