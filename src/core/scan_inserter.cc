@@ -380,14 +380,8 @@ class BeamEvidence {
     // share of a cross-section wider than a voxel (the axis' voxels hold the most likely part).
     const double cross_section = 2.0 * beam.length * tan_half_;
     off_axis_share_ = cross_section > resolution ? resolution / cross_section : 1.0;
-    // (A voxel further for margin.)
-    never_occupied_until_ = beam.hit ? beam.length - model.occupiedMargin(beam.length) - resolution
-                                     : std::numeric_limits<double>::infinity();
   }
   double pureFreeUntil() const { return pure_free_until_; }
-  // Voxels whose centres lie closer than this along the axis get no evidence above zero (none of
-  // a no-return beam's does): at most the free valley's strength.
-  double neverOccupiedUntil() const { return never_occupied_until_; }
   double offAxisFreeUntil() const { return off_axis_free_until_; }
 
   // The evidence (0: none, outside the cone). `axis_ray`: the voxel is one the beam's axis crosses.
@@ -418,7 +412,7 @@ class BeamEvidence {
   const Beam& beam_;
   double tan_half_, tan_full_;
   float l_free_;
-  double pure_free_until_, off_axis_free_until_, off_axis_share_ = 1.0, never_occupied_until_;
+  double pure_free_until_, off_axis_free_until_, off_axis_share_ = 1.0;
 };
 
 // Voxel centres relative to a sensor origin, as OcTree::keyToCoord gives them, with the tree's
@@ -543,6 +537,11 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
           // deepest): the model is not asked there. Before the return, where earlier rays of the
           // frame passed, it was asked in vain for most voxels (64 % of a room frame's calls).
           const bool free_is_strongest = skip_settled_voxels_ && weighted_free < 0.0f && weight == 1.0f;
+          // Voxels whose centres lie closer than this along the axis get no evidence above zero
+          // (none of a no-return beam's does); a voxel further for margin.
+          const double never_occupied_until = beam.hit
+                                                  ? beam.length - model_.occupiedMargin(beam.length) - tree_->getResolution()
+                                                  : std::numeric_limits<double>::infinity();
           const double h = half_diagonal + 1e-6;
           double entered = 0.0;
           int run = 0;
@@ -556,7 +555,7 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
                            run = 0;
                            // The voxel's centre lies within h of where the walk leaves it.
                            if (holds_free && free_is_strongest &&
-                               ray.start + forward_exit * (length - ray.start) + h < evidence.neverOccupiedUntil()) {
+                               ray.start + forward_exit * (length - ray.start) + h < never_occupied_until) {
                              return true;
                            }
                            judge(index, forward_exit);
