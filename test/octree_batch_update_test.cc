@@ -105,42 +105,88 @@ TEST(OctreeBatchUpdate, SortInTreeOrderIsTheMortonOrderOnBothSidesOfTheCentreKey
   }
 }
 
-// What each update did to its voxel, as the slice follows it: the value before (NaN for a voxel
-// the tree did not hold; a pruned voxel's is its parent's) and after, as updateNode leaves them.
+// What applying `updates` (in tree order) reports per update against what updateNode one by one
+// does to `reference`: the value before (NaN for a voxel the tree did not hold; a pruned voxel's
+// is its parent's) and after. Counts the voxels new before, held by a pruned node before, and
+// left unchanged.
+struct ChangeCounts {
+  std::size_t unknown_before = 0, pruned_before = 0, unchanged = 0;
+};
+void expectChangesOfUpdateNode(octomap::OcTree* fast, octomap::OcTree* reference, const std::vector<KeyUpdate>& updates,
+                               ChangeCounts* counts) {
+  std::vector<VoxelChange> expected;
+  for (const KeyUpdate& u : updates) {
+    const octomap::OcTreeNode* node = reference->search(u.key);
+    const float before = node ? node->getLogOdds() : std::numeric_limits<float>::quiet_NaN();
+    counts->pruned_before += node && depthOfLeaf(*reference, u.key) < reference->getTreeDepth();
+    reference->updateNode(u.key, u.log_odds);
+    expected.push_back({before, reference->search(u.key)->getLogOdds()});
+  }
+  std::vector<VoxelChange> changes;
+  applySortedUpdates(fast, updates, &changes);
+  ASSERT_EQ(changes.size(), updates.size());
+  for (std::size_t i = 0; i < updates.size(); ++i) {
+    if (std::isnan(expected[i].before)) {
+      ASSERT_TRUE(std::isnan(changes[i].before)) << "update " << i;
+      ++counts->unknown_before;
+    } else {
+      ASSERT_EQ(changes[i].before, expected[i].before) << "update " << i;
+    }
+    ASSERT_EQ(changes[i].after, expected[i].after) << "update " << i;
+    counts->unchanged += changes[i].before == changes[i].after;
+  }
+  ASSERT_NO_FATAL_FAILURE(expectSameTree(*fast, *reference));
+}
+
 TEST(OctreeBatchUpdate, SortedUpdatesReportWhatEachDidToItsVoxel) {
   std::mt19937 rng(5);
   octomap::OcTree fast(0.05), reference(0.05);
   useTightClamping(&fast, &reference);
-  std::size_t unknown_before = 0, pruned_before = 0, unchanged = 0;
+  ChangeCounts counts;
   for (int round = 0; round < 40; ++round) {
     std::vector<KeyUpdate> updates = randomUniqueUpdates(&rng, fast, 12, 3, 2000, round % 8 < 4 ? 0.8f : -0.8f);
     sortInTreeOrder(&updates);
-    std::vector<VoxelChange> expected;
-    for (const KeyUpdate& u : updates) {
-      const octomap::OcTreeNode* node = reference.search(u.key);
-      const float before = node ? node->getLogOdds() : std::numeric_limits<float>::quiet_NaN();
-      pruned_before += node && depthOfLeaf(reference, u.key) < reference.getTreeDepth();
-      reference.updateNode(u.key, u.log_odds);
-      expected.push_back({before, reference.search(u.key)->getLogOdds()});
-    }
-    std::vector<VoxelChange> changes;
-    applySortedUpdates(&fast, updates, &changes);
-    ASSERT_EQ(changes.size(), updates.size());
-    for (std::size_t i = 0; i < updates.size(); ++i) {
-      if (std::isnan(expected[i].before)) {
-        ASSERT_TRUE(std::isnan(changes[i].before)) << "round " << round << ", update " << i;
-        ++unknown_before;
-      } else {
-        ASSERT_EQ(changes[i].before, expected[i].before) << "round " << round << ", update " << i;
-      }
-      ASSERT_EQ(changes[i].after, expected[i].after) << "round " << round << ", update " << i;
-      unchanged += changes[i].before == changes[i].after;
-    }
-    ASSERT_NO_FATAL_FAILURE(expectSameTree(fast, reference)) << "round " << round;
+    ASSERT_NO_FATAL_FAILURE(expectChangesOfUpdateNode(&fast, &reference, updates, &counts)) << "round " << round;
   }
-  EXPECT_GT(unknown_before, 1000u);
-  EXPECT_GT(pruned_before, 5u) << "voxels of pruned nodes (expanded by the update)";
-  EXPECT_GT(unchanged, 1000u) << "voxels at their bound stay there";
+  EXPECT_GT(counts.unknown_before, 1000u);
+  EXPECT_GT(counts.pruned_before, 5u) << "voxels of pruned nodes (expanded by the update)";
+  EXPECT_GT(counts.unchanged, 1000u) << "voxels at their bound stay there";
+}
+
+// Free space seen again: whole aligned blocks of voxels (2, 4 and 8 a side) with one value, as a
+// depth frame's rays give them, which the batch applies to the block's node without its voxels
+// (new, pruned, or pruned at a clamping bound), mixed with blocks it must not treat so: one voxel
+// missing, one value different, an update leading away from the bound.
+TEST(OctreeBatchUpdate, WholeBlocksAndNodesAtTheirBoundMatchUpdateNodeOneByOne) {
+  std::mt19937 rng(11);
+  octomap::OcTree fast(0.05), reference(0.05);
+  useTightClamping(&fast, &reference);
+  ChangeCounts counts;
+  std::uniform_int_distribution<int> cell(-1, 1), bits(1, 3), flaw(0, 5);
+  for (int round = 0; round < 40; ++round) {
+    const float value = round % 10 < 7 ? -0.4f : 0.85f;  // free mostly, until clamped; then occupied
+    std::vector<KeyUpdate> updates;
+    octomap::KeySet seen;
+    for (int n = 0; n < 30; ++n) {
+      const int side = 1 << bits(rng);
+      std::uniform_int_distribution<int> offset(0, 8 / side - 1);
+      const int x0 = 8 * cell(rng) + side * offset(rng), y0 = 8 * cell(rng) + side * offset(rng),
+                z0 = 8 * (cell(rng) % 2) + side * offset(rng);
+      const int kind = flaw(rng);  // 0: one voxel missing, 1: one value different, 2: one leading away
+      for (int i = 0; i < side * side * side; ++i) {
+        const octomap::OcTreeKey key(static_cast<std::uint16_t>(32768 + x0 + i % side),
+                                     static_cast<std::uint16_t>(32768 + y0 + i / side % side),
+                                     static_cast<std::uint16_t>(32768 + z0 + i / (side * side)));
+        if ((kind == 0 && i == 3) || !seen.insert(key).second) continue;
+        updates.push_back({key, kind == 1 && i == 5 ? value * 0.5f : kind == 2 && i == 6 ? -value : value});
+      }
+    }
+    sortInTreeOrder(&updates);
+    ASSERT_NO_FATAL_FAILURE(expectChangesOfUpdateNode(&fast, &reference, updates, &counts)) << "round " << round;
+  }
+  EXPECT_GT(counts.unknown_before, 1000u);
+  EXPECT_GT(counts.pruned_before, 5000u) << "voxels of pruned nodes";
+  EXPECT_GT(counts.unchanged, 5000u) << "voxels at their bound stay there";
 }
 
 TEST(OctreeBatchUpdate, SimulatedScansMatchTheReference) {
