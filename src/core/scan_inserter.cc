@@ -130,6 +130,9 @@ std::size_t slotOf(std::uint64_t key, unsigned bits) {
 // was a mispredicted branch at every second or third point (82 000 of a desk frame's half, most
 // of its time). A voxel's sum leaves the table when another voxel takes its slot, and at the end;
 // a voxel may leave it more than once (the merge joins them).
+// The keys of a block of points are worked out first, in a loop without branches, and summed
+// after (worked out and summed point by point, the two loops' branches and latencies added up: a
+// room frame's grouping took 4.3 ms of a core against 3.0 now).
 void voxelSumsOf(const std::vector<Eigen::Vector3f>& points, std::size_t begin, std::size_t end, double inverse,
                  double centre, EndVoxels* out) {
   constexpr unsigned kSlotBits = 8;  // 256 slots, 10 KB: in the first-level cache
@@ -140,31 +143,43 @@ void voxelSumsOf(const std::vector<Eigen::Vector3f>& points, std::size_t begin, 
   };
   Slot slots[1u << kSlotBits];
   for (Slot& slot : slots) slot.key = ~std::uint64_t{0}, slot.n = 0;
+  constexpr std::size_t kBlock = 512;
+  constexpr std::uint64_t kNoKey = ~std::uint64_t{0};  // non-finite, or outside the octree's keys
+  std::uint64_t keys[kBlock];
+  const double limit = 2.0 * centre;
   out->voxels.reserve((end - begin) / 32);
-  for (std::size_t i = begin; i < end; ++i) {
-    const Eigen::Vector3f& p = points[i];
-    if (!p.allFinite()) {
-      out->non_finite[nonFiniteKind(p)]++;
-      continue;
+  for (std::size_t block = begin; block < end; block += kBlock) {
+    const std::size_t n = std::min(kBlock, end - block);
+    const Eigen::Vector3f* p = points.data() + block;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double sx = double(p[i].x()) * inverse + centre, sy = double(p[i].y()) * inverse + centre,
+                   sz = double(p[i].z()) * inverse + centre;
+      // NaN fails every comparison. Non-short-circuit: no branch.
+      const bool inside = (sx >= 0.0) & (sy >= 0.0) & (sz >= 0.0) & (sx < limit) & (sy < limit) & (sz < limit);
+      // Through int64: a double to uint64 conversion is a branchy sequence on x86-64.
+      const std::uint64_t key = std::uint64_t(std::int64_t(inside ? sx : 0.0)) |
+                                std::uint64_t(std::int64_t(inside ? sy : 0.0)) << 16 |
+                                std::uint64_t(std::int64_t(inside ? sz : 0.0)) << 32;
+      keys[i] = inside ? key : kNoKey;
     }
-    const Eigen::Vector3d q = p.cast<double>();
-    const double sx = q.x() * inverse + centre, sy = q.y() * inverse + centre, sz = q.z() * inverse + centre;
-    if (!(sx >= 0.0 && sy >= 0.0 && sz >= 0.0 && sx < 2.0 * centre && sy < 2.0 * centre && sz < 2.0 * centre)) {
-      out->outside.push_back(q);
-      continue;
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::uint64_t key = keys[i];
+      if (key == kNoKey) {
+        if (!p[i].allFinite()) out->non_finite[nonFiniteKind(p[i])]++;
+        else out->outside.push_back(p[i].cast<double>());
+        continue;
+      }
+      const double x = p[i].x(), y = p[i].y(), z = p[i].z();
+      Slot& slot = slots[slotOf(key, kSlotBits)];
+      if (slot.key == key) {
+        slot.x += x, slot.y += y, slot.z += z;
+        slot.n++;
+        continue;
+      }
+      if (slot.n > 0) out->voxels.push_back({slot.key, Eigen::Vector3d(slot.x, slot.y, slot.z), slot.n});
+      slot.key = key, slot.n = 1;
+      slot.x = x, slot.y = y, slot.z = z;
     }
-    // Through int64: a double to uint64 conversion is a branchy sequence on x86-64.
-    const std::uint64_t key = std::uint64_t(std::int64_t(sx)) | std::uint64_t(std::int64_t(sy)) << 16 |
-                              std::uint64_t(std::int64_t(sz)) << 32;
-    Slot& slot = slots[slotOf(key, kSlotBits)];
-    if (slot.key == key) {
-      slot.x += q.x(), slot.y += q.y(), slot.z += q.z();
-      slot.n++;
-      continue;
-    }
-    if (slot.n > 0) out->voxels.push_back({slot.key, Eigen::Vector3d(slot.x, slot.y, slot.z), slot.n});
-    slot.key = key, slot.n = 1;
-    slot.x = q.x(), slot.y = q.y(), slot.z = q.z();
   }
   for (const Slot& slot : slots) {
     if (slot.n > 0) out->voxels.push_back({slot.key, Eigen::Vector3d(slot.x, slot.y, slot.z), slot.n});
