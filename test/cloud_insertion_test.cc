@@ -247,7 +247,9 @@ TEST(CloudInsertion, SkippingVoxelsTheFreeValleyHoldsChangesNoUpdate) {
       occupied += a.updates[i].log_odds > 0.0f;
     }
     // Cut at 2 m, the room's walls are beyond: its rays clear only.
-    if (c.max_range == 0.0) EXPECT_GT(occupied, 100u) << "returns are marked";
+    if (c.max_range == 0.0) {
+      EXPECT_GT(occupied, 100u) << "returns are marked";
+    }
   }
 }
 

@@ -73,6 +73,8 @@ class CloudPreparer {
   std::uint64_t mapGeneration() const { return map_generation_; }
   // Its own evidence window (the size of the largest frame's box) and cache.
   std::size_t memoryBytes() const { return inserter_.memoryBytes(); }
+  // See ScanInserter::setGroupingThreads (the result is the same for any number).
+  void setGroupingThreads(unsigned threads) { inserter_.setGroupingThreads(threads); }
 
  private:
   octomap::OcTree geometry_;  // empty: only its key geometry is read

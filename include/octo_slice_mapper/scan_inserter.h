@@ -121,6 +121,9 @@ class ScanInserter {
 
   const InverseSensorModel& model() const { return model_; }
   const InsertOptions& options() const { return options_; }
+  // Threads that group a cloud's points by end voxel (0: one per core). A preparer on one of a
+  // pipeline's workers takes 1: the other workers keep the cores busy with other frames.
+  void setGroupingThreads(unsigned threads) { grouping_threads_ = threads; }
 
   // Scans update a write-back cache of the octree's layers (see LayerCache): the octree itself is
   // up to date only after flush(). What the cache does around other changes of the octree (a
@@ -198,6 +201,7 @@ class ScanInserter {
   // A cloud ray walked backwards does not ask the model for a voxel that holds the free valley
   // already where no evidence above zero can come (traceBeams); off only to check that it changes nothing.
   bool skip_settled_voxels_ = true;
+  unsigned grouping_threads_ = 0;
   std::optional<InverseSensorModel::ConeTable> cone_;  // for the last half-angle seen
   BeamDirections directions_;  // for the last scan geometry seen
 

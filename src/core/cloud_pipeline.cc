@@ -98,6 +98,9 @@ CloudPipeline::Ready CloudPipeline::prepare(Job job, std::unique_ptr<CloudPrepar
     }
     if (const SensorCloud* cloud = std::get_if<SensorCloud>(&job.input)) {
       session_->refreshCloudPreparer(preparer);
+      // With other workers preparing other frames, one thread per frame keeps the cores busy
+      // without more threads than cores (and a thread started per frame).
+      (*preparer)->setGroupingThreads(workers_.size() > 1 ? 1 : 0);
       ready.prepared = (*preparer)->prepare(*cloud);
       ready.map_generation = (*preparer)->mapGeneration();
     }

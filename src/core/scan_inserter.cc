@@ -190,7 +190,8 @@ void voxelSumsOf(const std::vector<Eigen::Vector3f>& points, std::size_t begin, 
 // of a fixed size first (voxelSumsOf, the pieces on every core, joined in order: the same groups
 // and sums on any number of cores), then the pieces' sums through an open-addressing table, in the
 // order they come.
-EndVoxels groupByEndVoxel(const std::vector<Eigen::Vector3f>& points, double resolution, unsigned depth) {
+EndVoxels groupByEndVoxel(const std::vector<Eigen::Vector3f>& points, double resolution, unsigned depth,
+                          unsigned threads) {
   // OctoMap's coordToKey (floor(coordinate / resolution) + the tree's centre key), inline, as
   // floor(coordinate / resolution + centre): non-negative where in range, so truncation is the
   // floor, without a call to floor() per coordinate (which more than doubled the time).
@@ -202,7 +203,7 @@ EndVoxels groupByEndVoxel(const std::vector<Eigen::Vector3f>& points, double res
   constexpr std::size_t kPiece = std::size_t(1) << 14;
   const std::size_t pieces = (points.size() + kPiece - 1) / kPiece;
   std::vector<EndVoxels> parts(std::max<std::size_t>(1, pieces));
-  forEachPiece(points.size(), pieces, workersFor(0, points.size(), kPiece),
+  forEachPiece(points.size(), pieces, workersFor(threads, points.size(), kPiece),
                [&](std::size_t begin, std::size_t end, std::size_t piece) {
                  voxelSumsOf(points, begin, end, inverse, centre, &parts[piece]);
                });
@@ -272,7 +273,7 @@ std::vector<Beam> ScanInserter::cloudBeams(const Eigen::Vector3d& origin, const 
     }
     return beams;
   }
-  const EndVoxels grouped = groupByEndVoxel(points, tree_->getResolution(), tree_->getTreeDepth());
+  const EndVoxels grouped = groupByEndVoxel(points, tree_->getResolution(), tree_->getTreeDepth(), grouping_threads_);
   c += grouped.non_finite;
   for (const Eigen::Vector3d& q : grouped.outside) beamTo(q, 1);  // its own beam (dropped where it leaves)
   beams.reserve(beams.size() + grouped.voxels.size());
