@@ -22,8 +22,10 @@ struct VoxelChange {
 // Gives the same tree as calling tree->updateNode(key, log_odds) for each update (same leaves,
 // same log-odds, same clamping, same pruning), but sorts the updates in octree order first and
 // walks each shared path from the root once, instead of twice per voxel (OctoMap's updateNode
-// searches for the leaf, then descends again to change it). Keys must be unique. Reorders
-// `updates`.
+// searches for the leaf, then descends again to change it). A node without children whose
+// voxels would all end alike (at a clamping bound with no update leading away, or all updated
+// with one value) is updated itself, without making and freeing its voxels. Keys must be unique.
+// Reorders `updates`.
 void applyUpdatesInTreeOrder(octomap::OcTree* tree, std::vector<KeyUpdate>* updates);
 
 // Puts updates in the order applySortedUpdates needs (a pure function of the keys: a cloud's
