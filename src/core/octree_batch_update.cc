@@ -98,9 +98,9 @@ struct Batch {
 
 // Updates [begin, end) below a node above the voxels' depth that holds no children (pruned: each
 // voxel below holds its value; or just created) and would hold none afterwards either: applied to
-// the node itself, without creating and freeing its voxels (in free space a depth frame's
-// applying spent a fifth of its time on that). Two cases, both exact (each voxel's value is the
-// node's, so each would end as the node does):
+// the node itself, without creating and freeing its voxels (malloc and free, all of them here,
+// were 3.5 % of the depth-frame benchmark's samples). Two cases, both exact (each voxel's value
+// is the node's, so each would end as the node does):
 //  - the node sits at a clamping bound and no update leads away from it: nothing changes (what
 //    OctoMap's updateNode does per voxel, its early abort);
 //  - the updates cover every voxel below it with one value (in tree order, unique keys: as many
