@@ -185,8 +185,8 @@ class ScanInserter {
   static void freeStretch(const Ray& ray, const Eigen::Vector3d& axis, double pure_free_until,
                           double off_axis_free_until, double tan_full, double half_diagonal, double* s_lo,
                           double* s_hi);
-  // Appends the beam's rays to `rays`.
-  void fanOf(const Beam& beam, double tan_half, std::vector<Ray>* rays) const;
+  // Appends the beam's rays, traced to `length` (traceLength), to `rays`.
+  void fanOf(const Beam& beam, double length, double tan_half, std::vector<Ray>* rays) const;
 
   octomap::OcTree* tree_;
   InsertOptions options_;

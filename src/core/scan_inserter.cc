@@ -288,9 +288,9 @@ double ScanInserter::traceLength(const Beam& beam) const {
 // The rays traced for one beam: its axis and, where the cone is wider than a voxel, rays fanned
 // across the cone in the scan plane, at most one voxel apart at the far end. A fanned ray starts
 // where it is half a voxel off the axis: closer in, the axis' voxels cover the cone.
-void ScanInserter::fanOf(const Beam& beam, double tan_half, std::vector<Ray>* rays) const {
+void ScanInserter::fanOf(const Beam& beam, double length, double tan_half, std::vector<Ray>* rays) const {
   const double resolution = tree_->getResolution();
-  const double half_width = traceLength(beam) * tan_half;
+  const double half_width = length * tan_half;
   // Bounded: an absurd reading (3e38 m under range_max = FLT_MAX) must not overflow the count;
   // such a beam leaves the tree and is dropped anyway.
   constexpr double kMaxFan = 4096.0;
@@ -319,8 +319,8 @@ KeyBox ScanInserter::prepareBeams(const Eigen::Vector3d& origin, const octomap::
   box.add(origin_key);
   for (const Beam& beam : beams) {
     const std::size_t first = rays_.size();
-    fanOf(beam, tan_half, &rays_);
     const double length = traceLength(beam);
+    fanOf(beam, length, tan_half, &rays_);
     KeyBox beam_box;
     bool inside = true;
     // Every ray's end: the arc of ends bulges past the outer rays' chord.
