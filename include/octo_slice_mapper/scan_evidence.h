@@ -97,6 +97,8 @@ class ScanEvidence {
   void drain(Fn&& fn) {
     withCombining([&](auto rule) { drainAs<decltype(rule)::value>(fn); });
   }
+  // Voxels listed since begin(): at least as many as drain() will hand on.
+  std::size_t listed() const { return count_; }
   // The window's size is virtual: of it, only pages scans reached are resident.
   std::size_t memoryBytes() const { return (capacity_ + touched_capacity_) * sizeof(std::uint32_t); }
 

@@ -147,7 +147,7 @@ void voxelSumsOf(const std::vector<Eigen::Vector3f>& points, std::size_t begin, 
   constexpr std::uint64_t kNoKey = ~std::uint64_t{0};  // non-finite, or outside the octree's keys
   std::uint64_t keys[kBlock];
   const double limit = 2.0 * centre;
-  out->voxels.reserve((end - begin) / 32);
+  out->voxels.reserve((end - begin) / 8);  // a room frame's points leave the table about every 15th
   for (std::size_t block = begin; block < end; block += kBlock) {
     const std::size_t n = std::min(kBlock, end - block);
     const Eigen::Vector3f* p = points.data() + block;
@@ -219,7 +219,7 @@ EndVoxels groupByEndVoxel(const std::vector<Eigen::Vector3f>& points, double res
   std::vector<std::int32_t> table(std::size_t(1) << bits, -1);
   const std::size_t mask = table.size() - 1;
   std::vector<EndVoxel>& voxels = grouped.voxels;
-  voxels.reserve(sums / 4);
+  voxels.reserve(sums);
   for (const EndVoxels& part : parts) {
     for (const EndVoxel& sum : part.voxels) {
       std::size_t slot = slotOf(sum.key, bits);
@@ -620,6 +620,7 @@ std::vector<KeyUpdate> ScanInserter::computeUpdates(const Eigen::Vector3d& origi
   if (!evidence_.begin(box, max_visits_)) return sparseUpdates(origin, origin_key, beams, half_angle);
   std::vector<KeyUpdate> updates;
   traceIntoWindow(origin, origin_key, beams, half_angle, shared_free_run);
+  updates.reserve(evidence_.listed());
   evidence_.drain([&updates](const octomap::OcTreeKey& key, float update) { updates.push_back({key, update}); });
   return updates;
 }
