@@ -102,9 +102,9 @@ void timeOnlinePass(const std::vector<osm::LogScan>& log, const osm::Mapper& all
         while (!(result = pass.take())) std::this_thread::sleep_for(std::chrono::milliseconds(2));
         return *result;
       };
-      pass.submit({before.scans, before.slice, 1, 0.0, std::nullopt, 0});
+      pass.submit({before.scans, before.slice, 1, 0.0, std::nullopt, 0, {}});
       wait();
-      pass.submit({now.scans, now.slice, 2, 0.0, std::nullopt, 0});
+      pass.submit({now.scans, now.slice, 2, 0.0, std::nullopt, 0, {}});
       const osm::OnlineOptimizerResult result = wait();
       seconds.push_back(result.seconds);
       index.push_back(result.map.report.build_seconds);

@@ -198,7 +198,9 @@ TEST(LayerCache, FlushOldestWritesTheLongestWaitingFirst) {
   for (unsigned i = 0; i < 100; ++i) {
     const octomap::OcTreeNode* node = cached.search(keys[i]);
     EXPECT_EQ(node != nullptr, i < 30) << "voxel " << i;
-    if (node) EXPECT_EQ(node->getLogOdds(), 0.85f);
+    if (node) {
+      EXPECT_EQ(node->getLogOdds(), 0.85f);
+    }
   }
   ASSERT_TRUE(cache.apply(keys[0], -0.4f));  // written, changed again: waits behind the other 70
   reference.updateNode(keys[0], -0.4f);
@@ -304,7 +306,9 @@ TEST(LayerCache, NewTileLoadsPrunedLeavesOfItsLayerOnly) {
       const bool inside = dx < 4 && dy < 4;
       const auto in_block = cache.lookup(corner[0] + dx, corner[1] + dy, corner[2] + 1, &value);
       EXPECT_EQ(in_block, inside ? LayerCache::Lookup::kKnown : LayerCache::Lookup::kUnknown) << dx << "," << dy;
-      if (inside) EXPECT_EQ(value, 2.0f);
+      if (inside) {
+        EXPECT_EQ(value, 2.0f);
+      }
       EXPECT_EQ(cache.lookup(corner[0] + dx, corner[1] + dy, corner[2] + 4, &value), LayerCache::Lookup::kUnknown)
           << dx << "," << dy;
     }

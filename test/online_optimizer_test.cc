@@ -31,7 +31,7 @@ struct Session {
   OnlineOptimizerInput insertUpTo(std::size_t n, std::uint64_t version) {
     for (std::size_t k = mapper.stats().scans_inserted; k < n; ++k) EXPECT_TRUE(mapper.insert(scans[k]).ok());
     MapSnapshot input = mapper.optimizationInput();
-    return {std::move(input.scans), std::move(input.slice), version, scans[n - 1].stamp, std::nullopt, 0};
+    return {std::move(input.scans), std::move(input.slice), version, scans[n - 1].stamp, std::nullopt, 0, {}};
   }
 };
 
