@@ -17,7 +17,7 @@ namespace octo_slice_mapper {
 // the range in double first, then computes OctoMap's key, floor(coordinate / resolution) + the
 // centre key, with OctoMap's own arithmetic (the factor 1 / resolution as OcTreeBaseImpl keeps
 // it) but inline and with the floor taken from the truncation: through the tree it was an
-// out-of-line call and a libm floor() per axis, a third of preparing a depth frame's rays.
+// out-of-line call and a libm floor() per axis, for every ray end of every scan and frame.
 inline bool coordToKeySafe(const octomap::OcTree& tree, double x, double y, double z, octomap::OcTreeKey* key) {
   const double resolution = tree.getResolution();
   const int centre = 1 << (tree.getTreeDepth() - 1);  // OctoMap's tree_max_val
