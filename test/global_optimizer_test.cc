@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cstdio>
 #include <limits>
 #include <random>
@@ -79,6 +80,29 @@ TEST(GlobalOptimizer, SweepsNeverLowerTheLikelihoodAndEndInALocalOptimum) {
       ASSERT_LE(optimizer.flipDelta(c), 1e-9) << "cell " << c << " would still improve";
     }
   }
+}
+
+// A stop asked for ends optimize() before its next sweep (the background pass at shutdown): none
+// with the flag set from the start, the map and likelihood as built; and a later pass over the
+// same index, with the flag cleared, converges as usual.
+TEST(GlobalOptimizer, AStopEndsThePassBeforeItsNextSweep) {
+  const sim::SimulatedSession session(sim::FloorPlan::doorCorridor(), sim::SessionSpec::corridorPass());
+  GlobalOptimizer optimizer(GlobalOptimizerOptions{}, 0.05);
+  optimizer.build(storeAll(session.allScans()));
+  std::atomic<bool> stop{true};
+  optimizer.stopWhen(&stop);
+  const double before = optimizer.logLikelihood();
+  const OptimizeReport stopped = optimizer.optimize();
+  EXPECT_TRUE(stopped.stopped);
+  EXPECT_FALSE(stopped.converged);
+  EXPECT_EQ(stopped.sweeps, 0);
+  EXPECT_EQ(optimizer.logLikelihood(), before);
+  stop = false;
+  const OptimizeReport report = optimizer.optimize();
+  EXPECT_FALSE(report.stopped);
+  EXPECT_TRUE(report.converged);
+  EXPECT_GT(report.sweeps, 1);
+  EXPECT_GT(optimizer.logLikelihood(), before);
 }
 
 TEST(GlobalOptimizer, AnyNumberOfThreadsGivesTheSameMapAndLikelihood) {

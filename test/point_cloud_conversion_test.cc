@@ -6,6 +6,8 @@
 #include <sensor_msgs/point_cloud2_iterator.h>
 
 #include <cmath>
+#include <cstring>
+#include <random>
 
 using namespace octo_slice_mapper::ros_adapter;
 
@@ -40,6 +42,43 @@ TEST(PointCloudConversion, AWellFormedCloudPassesAndItsPointsReachTheMapFrame) {
   EXPECT_FALSE(points[1].allFinite());
   EXPECT_TRUE(points[2].isApprox(Eigen::Vector3f(14, 5, 6)));
   EXPECT_FALSE(points[3].allFinite());
+}
+
+// The SIMD transform sums as `rotation * v + translation` does, so every point is that one to the
+// bit (the map's bytes depend on it: a coordinate rounded the other way moves an .ot's log-odds).
+TEST(PointCloudConversion, PointsAreTheRotationAndTranslationToTheBit) {
+  const int width = 640, height = 8;
+  sensor_msgs::PointCloud2 cloud = xyzCloud(width, height);
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<float> coordinate(-6.0f, 6.0f);
+  std::vector<Eigen::Vector3f> sensor;
+  sensor_msgs::PointCloud2Iterator<float> x(cloud, "x"), y(cloud, "y"), z(cloud, "z");
+  for (int k = 0; k < width * height; ++k, ++x, ++y, ++z) {
+    Eigen::Vector3f v(coordinate(rng), coordinate(rng), coordinate(rng));
+    if (k % 97 == 0) v.y() = NAN;
+    sensor.push_back(v);
+    *x = v.x(), *y = v.y(), *z = v.z();
+  }
+  Eigen::Isometry3f to_map = Eigen::Isometry3f::Identity();
+  to_map.linear() = Eigen::AngleAxisf(0.7f, Eigen::Vector3f(0.3f, -0.2f, 0.9f).normalized()).toRotationMatrix();
+  to_map.translation() = Eigen::Vector3f(1.31f, -0.27f, 0.33f);
+  const Eigen::Matrix3f rotation = to_map.linear();
+  const Eigen::Vector3f translation = to_map.translation();
+  std::vector<Eigen::Vector3f> points;
+  cloudPointsInMap(cloud, to_map, &points);
+  ASSERT_EQ(points.size(), sensor.size());
+  std::size_t compared = 0;
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    if (!sensor[k].allFinite()) {
+      EXPECT_FALSE(points[k].allFinite()) << k;
+      continue;
+    }
+    const Eigen::Vector3f expected = rotation * sensor[k] + translation;
+    ASSERT_EQ(std::memcmp(points[k].data(), expected.data(), sizeof expected), 0)
+        << k << ": " << points[k].transpose() << " against " << expected.transpose();
+    ++compared;
+  }
+  EXPECT_GT(compared, 5000u);
 }
 
 // The cloud that crashed the node inside pcl::fromROSMsg: 2 000 000 points declared, 120 bytes sent.

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <functional>
@@ -41,6 +42,7 @@ struct OptimizeReport {
   std::vector<double> log_likelihood_per_sweep;  // after each sweep
   int sweeps = 0;
   bool converged = false;  // a sweep without flips: a local optimum
+  bool stopped = false;    // a stop was asked for (stopWhen) before it converged
   std::size_t cells = 0;   // observed cells (the variables)
   std::size_t beams = 0;
   std::size_t ray_cells = 0;  // (cell, beam) pairs in the index
@@ -81,6 +83,9 @@ class GlobalOptimizer {
   // `first_sweep` (one flag per cell): the cells the first sweep looks at (default: all); the
   // later sweeps look at the cells on beams through a flipped cell, as always.
   OptimizeReport optimize(const ProgressFn& progress = {}, const std::vector<std::uint8_t>* first_sweep = nullptr);
+  // optimize() ends before its next sweep once `*stop` is true (null: never): a background pass
+  // being shut down does not finish a pass of many seconds first.
+  void stopWhen(const std::atomic<bool>* stop) { stop_ = stop; }
   // The cells a first sweep must look at to reach the same map as a full one, when the start is
   // a converged earlier result over the scans before `first_new_scan` (as build() got them, in
   // the same order) and `earlier` is that result: a cell's gain depends only on the beams through
@@ -106,6 +111,7 @@ class GlobalOptimizer {
   std::size_t beamCount() const { return beams_.size(); }
 
  private:
+  const std::atomic<bool>* stop_ = nullptr;  // stopWhen
   struct Beam {
     float ox, oy, dx, dy;  // origin and unit direction in the x-y plane
     std::uint16_t fan;     // extra rays on each side of the axis, spread over the cone

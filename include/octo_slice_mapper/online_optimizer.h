@@ -15,6 +15,7 @@
 // GlobalOptimizerOptions::threads workers (the node gives it one: ~online_optimize_threads).
 #pragma once
 
+#include <atomic>
 #include <condition_variable>
 #include <memory>
 #include <cstdint>
@@ -91,6 +92,9 @@ class OnlineOptimizer {
   std::unique_ptr<GlobalOptimizer> optimizer_;
   std::uint64_t generation_ = 0;  // counts forget()s
   bool running_ = false, stopping_ = false;
+  // Set with stopping_: a running pass ends before its next sweep (a full pass of a building's
+  // scans takes many seconds, and the node's shutdown waited for it past roslaunch's 15 s).
+  std::atomic<bool> stop_pass_{false};
   std::thread worker_;  // last: started once the rest is set up
 };
 

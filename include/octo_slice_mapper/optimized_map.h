@@ -31,11 +31,13 @@ struct RevisitFrom {
 // with `revisit`, the first sweep restricted as RevisitFrom says. With `kept` (the background
 // pass), the optimizer is left there for the next call, and a call with `revisit` extends the beam
 // index found there by the new scans where it can (GlobalOptimizer::extend: the same index as a
-// build of all) instead of building it anew; report.index_extended says which it did.
+// build of all) instead of building it anew; report.index_extended says which it did. `stop`:
+// see GlobalOptimizer::stopWhen.
 OptimizedMap optimizeScans(const std::vector<StoredScan>& scans, const GlobalOptimizerOptions& options,
                            double resolution, const GridImage* warm_start = nullptr,
                            const ProgressFn& progress = {}, const RevisitFrom* revisit = nullptr,
-                           std::unique_ptr<GlobalOptimizer>* kept = nullptr);
+                           std::unique_ptr<GlobalOptimizer>* kept = nullptr,
+                           const std::atomic<bool>* stop = nullptr);
 
 // The slice band's voxel layers (z keys band_lo..band_hi, SliceGrid::bandMinKey/MaxKey) and, of
 // them, the layers the global pass speaks for: those its scans' beams sweep (a level 2D lidar's

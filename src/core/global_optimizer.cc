@@ -425,6 +425,10 @@ OptimizeReport GlobalOptimizer::optimize(const ProgressFn& progress, const std::
       first_sweep && first_sweep->size() == cellCount() ? *first_sweep : std::vector<std::uint8_t>(cellCount(), 1);
   std::fill(beam_changed_.begin(), beam_changed_.end(), 0);
   for (int sweep = 0; sweep < options_.max_sweeps; ++sweep) {
+    if (stop_ && stop_->load(std::memory_order_relaxed)) {
+      report.stopped = true;
+      break;
+    }
     // A cell's gain depends only on the beams through it: after the first sweep only cells on
     // beams through a flipped cell need a new look.
     // The gains are read-only work: each worker takes a chunk of the cells, and the chunks'

@@ -50,6 +50,7 @@ OnlineOptimizer::~OnlineOptimizer() {
     std::lock_guard<std::mutex> lock(mutex_);
     stopping_ = true;
   }
+  stop_pass_ = true;
   wake_.notify_all();
   worker_.join();
 }
@@ -115,7 +116,7 @@ void OnlineOptimizer::run() {
     const GlobalOptimizerOptions& options = input.options ? *input.options : options_;
     const RevisitFrom revisit{revisit_from, &last};
     result.map = optimizeScans(input.scans, options, resolution_, &start, {}, revisit_from > 0 ? &revisit : nullptr,
-                               &optimizer_);
+                               &optimizer_, &stop_pass_);
     result.map.grid = inFrameOf(result.map.grid, input.incremental);
     result.shown = withObstacles(result.map.grid, input.incremental, input.beside);
     result.scans_revisited_from = revisit_from;
@@ -125,6 +126,7 @@ void OnlineOptimizer::run() {
 
     lock.lock();
     running_ = false;
+    if (stopping_) return;  // a pass stopped early is no result
     // After a forget() during the pass, its result belongs to the map before: dropped.
     if (generation == generation_) {
       last_ = result.map.grid;

@@ -12,7 +12,8 @@ namespace octo_slice_mapper {
 
 OptimizedMap optimizeScans(const std::vector<StoredScan>& scans, const GlobalOptimizerOptions& options,
                            double resolution, const GridImage* warm_start, const ProgressFn& progress,
-                           const RevisitFrom* revisit, std::unique_ptr<GlobalOptimizer>* kept) {
+                           const RevisitFrom* revisit, std::unique_ptr<GlobalOptimizer>* kept,
+                           const std::atomic<bool>* stop) {
   const auto t0 = std::chrono::steady_clock::now();
   std::unique_ptr<GlobalOptimizer> own;
   std::unique_ptr<GlobalOptimizer>& held = kept ? *kept : own;
@@ -22,6 +23,7 @@ OptimizedMap optimizeScans(const std::vector<StoredScan>& scans, const GlobalOpt
     held->build(scans, progress);
   }
   GlobalOptimizer& optimizer = *held;
+  optimizer.stopWhen(stop);
   if (warm_start) optimizer.startFrom(*warm_start);
   else if (extended) optimizer.startEmpty();  // the new beams' records are set by a start
   const double build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
