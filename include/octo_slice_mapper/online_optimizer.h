@@ -93,7 +93,7 @@ class OnlineOptimizer {
   std::uint64_t generation_ = 0;  // counts forget()s
   bool running_ = false, stopping_ = false;
   // Set with stopping_: a running pass ends before its next sweep (a full pass of a building's
-  // scans takes many seconds, and the node's shutdown waited for it past roslaunch's 15 s).
+  // scans takes many seconds, and the node's shutdown waits for this worker).
   std::atomic<bool> stop_pass_{false};
   std::thread worker_;  // last: started once the rest is set up
 };
