@@ -138,16 +138,28 @@ void expectChangesOfUpdateNode(octomap::OcTree* fast, octomap::OcTree* reference
   ASSERT_NO_FATAL_FAILURE(expectSameTree(*fast, *reference));
 }
 
-TEST(OctreeBatchUpdate, SortedUpdatesReportWhatEachDidToItsVoxel) {
-  std::mt19937 rng(5);
+// Rounds of updates, draw(round, tree) each, sorted and applied to a tree with tight clamping,
+// each round checked against updateNode one by one (expectChangesOfUpdateNode).
+template <typename Draw>
+void expectRoundsOfUpdateNode(int rounds, Draw&& draw, ChangeCounts* counts) {
   octomap::OcTree fast(0.05), reference(0.05);
   useTightClamping(&fast, &reference);
-  ChangeCounts counts;
-  for (int round = 0; round < 40; ++round) {
-    std::vector<KeyUpdate> updates = randomUniqueUpdates(&rng, fast, 12, 3, 2000, round % 8 < 4 ? 0.8f : -0.8f);
+  for (int round = 0; round < rounds; ++round) {
+    std::vector<KeyUpdate> updates = draw(round, fast);
     sortInTreeOrder(&updates);
-    ASSERT_NO_FATAL_FAILURE(expectChangesOfUpdateNode(&fast, &reference, updates, &counts)) << "round " << round;
+    ASSERT_NO_FATAL_FAILURE(expectChangesOfUpdateNode(&fast, &reference, updates, counts)) << "round " << round;
   }
+}
+
+TEST(OctreeBatchUpdate, SortedUpdatesReportWhatEachDidToItsVoxel) {
+  std::mt19937 rng(5);
+  ChangeCounts counts;
+  ASSERT_NO_FATAL_FAILURE(expectRoundsOfUpdateNode(
+      40,
+      [&](int round, const octomap::OcTree& tree) {
+        return randomUniqueUpdates(&rng, tree, 12, 3, 2000, round % 8 < 4 ? 0.8f : -0.8f);
+      },
+      &counts));
   EXPECT_GT(counts.unknown_before, 1000u);
   EXPECT_GT(counts.pruned_before, 5u) << "voxels of pruned nodes (expanded by the update)";
   EXPECT_GT(counts.unchanged, 1000u) << "voxels at their bound stay there";
@@ -159,11 +171,9 @@ TEST(OctreeBatchUpdate, SortedUpdatesReportWhatEachDidToItsVoxel) {
 // missing, one value different, an update leading away from the bound.
 TEST(OctreeBatchUpdate, WholeBlocksAndNodesAtTheirBoundMatchUpdateNodeOneByOne) {
   std::mt19937 rng(11);
-  octomap::OcTree fast(0.05), reference(0.05);
-  useTightClamping(&fast, &reference);
   ChangeCounts counts;
   std::uniform_int_distribution<int> cell(-1, 1), bits(1, 3), flaw(0, 5);
-  for (int round = 0; round < 40; ++round) {
+  const auto blocks = [&](int round, const octomap::OcTree&) {
     const float value = round % 10 < 7 ? -0.4f : 0.85f;  // free mostly, until clamped; then occupied
     std::vector<KeyUpdate> updates;
     octomap::KeySet seen;
@@ -181,9 +191,9 @@ TEST(OctreeBatchUpdate, WholeBlocksAndNodesAtTheirBoundMatchUpdateNodeOneByOne) 
         updates.push_back({key, kind == 1 && i == 5 ? value * 0.5f : kind == 2 && i == 6 ? -value : value});
       }
     }
-    sortInTreeOrder(&updates);
-    ASSERT_NO_FATAL_FAILURE(expectChangesOfUpdateNode(&fast, &reference, updates, &counts)) << "round " << round;
-  }
+    return updates;
+  };
+  ASSERT_NO_FATAL_FAILURE(expectRoundsOfUpdateNode(40, blocks, &counts));
   EXPECT_GT(counts.unknown_before, 1000u);
   EXPECT_GT(counts.pruned_before, 5000u) << "voxels of pruned nodes";
   EXPECT_GT(counts.unchanged, 5000u) << "voxels at their bound stay there";
