@@ -1,0 +1,50 @@
+// A depth frame's points grouped by the octree voxel they end in (issue 22): one ray per end
+// voxel, towards the mean of its points, instead of one per point.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <vector>
+
+#include "octo_slice_mapper/scan.h"
+
+namespace octo_slice_mapper {
+
+// Points that end in one voxel: its key (x | y << 16 | z << 32), their sum and their count.
+struct EndVoxel {
+  std::uint64_t key;
+  Eigen::Vector3d sum;
+  std::uint64_t n;
+};
+
+struct EndVoxels {
+  std::vector<EndVoxel> voxels;          // in a deterministic order (see groupByEndVoxel)
+  std::vector<Eigen::Vector3d> outside;  // finite points outside the octree's keys, in order
+  ReadingCounts non_finite;              // nan / inf
+};
+
+// How a non-finite point is counted: NaN if any coordinate is, else infinite.
+inline ReadingKind nonFiniteKind(const Eigen::Vector3f& p) {
+  return p.array().isNaN().any() ? ReadingKind::kNaN : ReadingKind::kInfinite;
+}
+
+// What keyCoordinates gives a coordinate that has no key: NaN, infinite or outside the octree.
+constexpr std::int32_t kNoKeyCoordinate = -1;
+
+// Per float of `coords` (a frame's x, y, z in turn), its key along its axis in an octree whose key
+// of coordinate 0 is `centre` (OctoMap's tree_max_val) and whose 1 / resolution is `inverse`:
+// trunc(double(c) * inverse + centre) where that lies in [0, 2 centre), else kNoKeyCoordinate.
+// This is OctoMap's floor(c / resolution) + centre but at the rounding of a value within an ulp
+// of a voxel boundary (the grouping has always used it). On x86-64 four floats at a time (SSE2),
+// each the same as keyCoordinateOf.
+void keyCoordinates(const float* coords, std::size_t count, double inverse, double centre, std::int32_t* keys);
+// One coordinate: the reference for keyCoordinates.
+std::int32_t keyCoordinateOf(float coord, double inverse, double centre);
+
+// Points by the voxel (of an octree of this resolution and depth) they end in, with the
+// non-finite ones counted and the ones outside the octree's keys listed. The same groups, sums
+// and order on any number of `threads` (0: every core).
+EndVoxels groupByEndVoxel(const std::vector<Eigen::Vector3f>& points, double resolution, unsigned depth,
+                          unsigned threads);
+
+}  // namespace octo_slice_mapper
