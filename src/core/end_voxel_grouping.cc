@@ -11,6 +11,8 @@
 
 namespace octo_slice_mapper {
 
+// OctoMap's floor(c / resolution) + centre as floor(c * inverse + centre): in range the value is
+// not negative, so the truncation is the floor, without a call to floor() per coordinate.
 std::int32_t keyCoordinateOf(float coord, double inverse, double centre) {
   const double s = double(coord) * inverse + centre;
   return s >= 0.0 && s < 2.0 * centre ? static_cast<std::int32_t>(s) : kNoKeyCoordinate;  // NaN: none
@@ -20,7 +22,8 @@ void keyCoordinates(const float* coords, std::size_t count, double inverse, doub
   std::size_t k = 0;
 #if defined(__SSE2__)
   // Four floats per round, as two pairs of doubles: the same multiply, add, comparisons and
-  // truncation as keyCoordinateOf (SSE2 has no fused multiply-add to round differently).
+  // truncation as keyCoordinateOf (x86-64's baseline has no fused multiply-add that could round
+  // one of them differently; a build with -mfma would be caught by end_voxel_grouping_test).
   const __m128d inv = _mm_set1_pd(inverse), cen = _mm_set1_pd(centre), limit = _mm_set1_pd(2.0 * centre);
   const __m128d zero = _mm_setzero_pd();
   const __m128i none = _mm_set1_epi32(kNoKeyCoordinate);
