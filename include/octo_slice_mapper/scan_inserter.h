@@ -195,6 +195,7 @@ class ScanInserter {
   ScanEvidence evidence_;               // the current scan's combined evidence
   std::vector<Ray> rays_;               // the current scan's rays (prepareBeams)
   std::vector<std::size_t> ray_begin_;  // beam b's are rays_[ray_begin_[b], ray_begin_[b + 1])
+  std::vector<double> trace_length_;    // beam b's traceLength, worked out once (prepareBeams)
   std::size_t max_visits_ = 0;          // bounds how many voxels the rays visit
   std::uint64_t beams_outside_ = 0;     // the current scan's beams ending outside the octree
   std::vector<KeyUpdate> beam_evidence_;  // a fanned beam's evidence before it is combined

@@ -162,14 +162,15 @@ void ScanInserter::fanOf(const Beam& beam, double length, double tan_half, std::
   }
 }
 
-// First pass over a scan's beams: their rays with the keys of their far ends (rays_, beam b's from
-// ray_begin_[b] to ray_begin_[b + 1]; none for a beam that leaves the octree's key range), and the
-// key box of all ray ends (rays are straight, so the box of the origin and the ends holds every
+// First pass over a scan's beams: their trace lengths (trace_length_), their rays with the keys of
+// their far ends (rays_, beam b's from ray_begin_[b] to ray_begin_[b + 1]; none for a beam that
+// leaves the octree's key range), and the key box of all ray ends (rays are straight, so the box of the origin and the ends holds every
 // voxel they cross).
 KeyBox ScanInserter::prepareBeams(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
                                   const std::vector<Beam>& beams, double tan_half) {
   rays_.clear();
   ray_begin_.assign(1, 0);
+  trace_length_.clear();
   max_visits_ = 0;
   beams_outside_ = 0;
   KeyBox box;
@@ -177,6 +178,7 @@ KeyBox ScanInserter::prepareBeams(const Eigen::Vector3d& origin, const octomap::
   for (const Beam& beam : beams) {
     const std::size_t first = rays_.size();
     const double length = traceLength(beam);
+    trace_length_.push_back(length);
     fanOf(beam, length, tan_half, &rays_);
     KeyBox beam_box;
     bool inside = true;
@@ -383,7 +385,7 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
                               always_inline)) { centres.placeInLayer(k, beam, along, lateral_sq); };
     // Scan beams of a level scan: the axis and `across` lie in the plane.
     const bool level_beam = beam.direction.z() == 0.0 && beam.across.z() == 0.0 && !beam.across.isZero();
-    const double length = traceLength(beam);
+    const double length = trace_length_[b];
     for (std::size_t r = ray_begin_[b]; r < ray_begin_[b + 1]; ++r) {
       const Ray& ray = rays_[r];
       axis_ray = ray.axis;
