@@ -65,3 +65,37 @@ TEST(KeyBox, CoordToKeySafeIsOctoMapsKeyInsideAndRefusesOutside) {
   EXPECT_GT(checked, 80000u);
   EXPECT_GT(refused, 10u) << "the tree's edges were reached";
 }
+
+// The box of a list of keys (eight at a time where there are eight) is the one key-by-key adds
+// give: for every count up to 40 and a large one, keys anywhere in the 16-bit range (both sides of
+// the top bit, where signed and unsigned order differ), at 0 and 0xFFFF, and with each axis's
+// extreme in any position (so in every lane of the eight-key rounds and in the remainder).
+TEST(KeyBox, OfIsTheBoxOfEveryKey) {
+  std::mt19937 rng(43);
+  std::uniform_int_distribution<int> word(0, 0xFFFF), near_top(0x7FF0, 0x8010);
+  std::size_t checked = 0;
+  for (int trial = 0; trial < 300; ++trial) {
+    const std::size_t n = trial < 240 ? std::size_t(trial % 41) : std::size_t(1000 + trial);
+    std::vector<octomap::OcTreeKey> keys;
+    for (std::size_t i = 0; i < n; ++i) {
+      const bool narrow = trial % 3 == 1;  // around the top bit only
+      octomap::OcTreeKey k;
+      for (int d = 0; d < 3; ++d) k[d] = static_cast<octomap::key_type>(narrow ? near_top(rng) : word(rng));
+      keys.push_back(k);
+    }
+    if (n > 0 && trial % 5 == 0) {  // the range's ends, at a random key and axis
+      keys[rng() % n][rng() % 3] = 0;
+      keys[rng() % n][rng() % 3] = 0xFFFF;
+    }
+    KeyBox expected;
+    for (const octomap::OcTreeKey& k : keys) expected.add(k);
+    const KeyBox box = KeyBox::of(keys);
+    EXPECT_EQ(box.empty(), keys.empty());
+    for (int d = 0; d < 3; ++d) {
+      ASSERT_EQ(box.min[d], expected.min[d]) << "axis " << d << ", " << n << " keys, trial " << trial;
+      ASSERT_EQ(box.max[d], expected.max[d]) << "axis " << d << ", " << n << " keys, trial " << trial;
+    }
+    ++checked;
+  }
+  EXPECT_EQ(checked, 300u);
+}
