@@ -1,7 +1,7 @@
 // bench_cloud_insertion: depth-camera frames into the octree (issue 22), against OctoMap's own
 // methods, in one process.
 //
-//   bench_cloud_insertion [--frames N] [--resolution M] [--ours-only] [--scene desk|room]
+//   bench_cloud_insertion [--frames N] [--rounds R] [--resolution M] [--ours-only] [--scene desk|room]
 //
 // Frames come from the simulated Kinect-class camera (sim/depth_camera.h: 640 x 480, 57 x 43 deg,
 // 0.5-4.5 m, the Kinect's depth noise) in the simulated office room, in two scenes: "desk" (the
@@ -18,8 +18,10 @@
 //   ours, pipelined: the same frames through the node's CloudPipeline (two workers: frames
 //         converted and prepared in parallel, applied in order; the layout checked on the
 //         submitting thread, as the node does); ms per frame = wall time of all frames / frames
-//         (throughput), median of three runs into fresh sessions; the octree must equal ours
-//         leaf for leaf.
+//         (throughput), in R rounds (default 5) into fresh sessions, each round beside a run of
+//         OctoMap's two methods into fresh trees (the order turned every round); the ratios
+//         "pipe/oct" and "pipe/discr" are the median of the rounds' ratios. The octree must equal
+//         ours leaf for leaf.
 // Prints per scene the median ms per frame and the ratios, how our map differs from the whole
 // rays' and from the per-point one (voxels by class, the navigation slice's cells by map_server's
 // class), and a JSON line (exit status 1 if a pipelined map differs). --ours-only: only ours, 20
@@ -196,6 +198,7 @@ std::vector<double> timeFrames(const std::vector<Frame>& frames, Insert&& insert
 
 int main(int argc, char** argv) {
   int frames_per_scene = 10;
+  int rounds = 5;  // of the pipelined path and OctoMap's methods, alternated
   double resolution = 0.05;
   bool ours_only = false;  // for profiling
   std::string only_scene;  // "" = both
@@ -205,8 +208,10 @@ int main(int argc, char** argv) {
     else if (arg == "--resolution" && i + 1 < argc) resolution = std::atof(argv[++i]);
     else if (arg == "--ours-only") ours_only = true;
     else if (arg == "--scene" && i + 1 < argc) only_scene = argv[++i];
+    else if (arg == "--rounds" && i + 1 < argc) rounds = std::max(1, std::atoi(argv[++i]));
     else {
-      std::fprintf(stderr, "usage: bench_cloud_insertion [--frames N] [--resolution M] [--ours-only] [--scene desk|room]\n");
+      std::fprintf(stderr,
+                   "usage: bench_cloud_insertion [--frames N] [--rounds R] [--resolution M] [--ours-only] [--scene desk|room]\n");
       return 2;
     }
   }
@@ -223,8 +228,9 @@ int main(int argc, char** argv) {
                  scenes.end());
   }
   const int repeats = ours_only ? 20 : 1;
-  std::printf("== depth frames, 640 x 480, %.2f m, %d frames per scene (median ms per frame)\n", resolution,
-              frames_per_scene);
+  std::printf("== depth frames, 640 x 480, %.2f m, %d frames per scene, %d rounds (median ms per frame; pipe/oct and "
+              "pipe/discr: median of the rounds' ratios)\n",
+              resolution, frames_per_scene, rounds);
   std::printf("  %-6s %8s %10s %10s %11s %10s %12s %12s %10s %10s %10s %10s\n", "scene", "points", "ours", "pipelined",
               "whole rays", "per point", "octomap", "discretized", "vs octomap", "vs discr.", "pipe/oct", "pipe/discr");
   std::string json = "{\"bench\": \"cloud_insertion\", \"resolution\": " + std::to_string(resolution) + ", \"scenes\": {";
@@ -251,10 +257,36 @@ int main(int argc, char** argv) {
       ours.insert(ours.end(), run.begin(), run.end());
     }
     // Frames in parallel on two workers, applied in order: throughput, and the map (equal to ours
-    // when each frame went into a fresh map once, i.e. without --ours-only's repeats).
-    std::vector<double> pipelined;
+    // when each frame went into a fresh map once, i.e. without --ours-only's repeats). In rounds
+    // with OctoMap's two methods, each into a fresh tree, the order turned every round: the
+    // pipelined ratios are taken per round, so that a change of the host's speed between rounds
+    // moves both sides of a ratio (session 43: OctoMap's median 140-220 ms in runs minutes apart).
+    std::vector<double> pipelined, plain, discrete, pipe_vs_plain, pipe_vs_discrete;
     std::unique_ptr<octomap::OcTree> pipelined_tree;
-    for (int r = 0; r < 3; ++r) pipelined.push_back(pipelinedMsPerFrame(frames, options, 2, &pipelined_tree));
+    const auto origin = [](const Frame& f) {
+      const Eigen::Vector3d o = f.optical_in_map.translation();
+      return octomap::point3d(o.x(), o.y(), o.z());
+    };
+    for (int r = 0; r < rounds; ++r) {
+      double q_r = 0.0;
+      std::vector<double> p_r, d_r;
+      const auto octomaps = [&] {
+        octomap::OcTree full(resolution), discretized(resolution);
+        p_r = timeFrames(frames, [&](const Frame& f) { full.insertPointCloud(f.points, origin(f)); });
+        d_r = timeFrames(frames, [&](const Frame& f) {
+          discretized.insertPointCloud(f.points, origin(f), -1.0, false, true);
+        });
+      };
+      if (r % 2 == 1 && !ours_only) octomaps();
+      q_r = pipelinedMsPerFrame(frames, options, 2, &pipelined_tree);
+      if (r % 2 == 0 && !ours_only) octomaps();
+      pipelined.push_back(q_r);
+      if (ours_only) continue;
+      plain.insert(plain.end(), p_r.begin(), p_r.end());
+      discrete.insert(discrete.end(), d_r.begin(), d_r.end());
+      pipe_vs_plain.push_back(median(p_r) / q_r);
+      pipe_vs_discrete.push_back(median(d_r) / q_r);
+    }
     bool pipelined_same = true;
     if (!ours_only) {
       pipelined_same = sameLeaves(mapper.tree(), *pipelined_tree) && sameLeaves(*pipelined_tree, mapper.tree());
@@ -281,25 +313,23 @@ int main(int argc, char** argv) {
       vs_per_point = agreement(per_point, mapper);
       vs_whole = agreement(whole, mapper);
     }
-    octomap::OcTree full(resolution), discretized(resolution);
-    const auto origin = [](const Frame& f) {
-      const Eigen::Vector3d o = f.optical_in_map.translation();
-      return octomap::point3d(o.x(), o.y(), o.z());
-    };
-    const std::vector<double> plain = ours_only ? std::vector<double>{0.0} : timeFrames(frames, [&](const Frame& f) {
-      full.insertPointCloud(f.points, origin(f));
-    });
-    const std::vector<double> discrete = ours_only ? std::vector<double>{0.0} : timeFrames(frames, [&](const Frame& f) {
-      discretized.insertPointCloud(f.points, origin(f), -1.0, false, true);
-    });
+    if (ours_only) plain = discrete = pipe_vs_plain = pipe_vs_discrete = {0.0};
     if (ours_only) std::printf("  (%s: conversion from PointCloud2 %.2f ms of it)\n", scenes[s].name, median(conversion_ms));
     std::vector<double> valid;
     for (const Frame& f : frames) valid.push_back(static_cast<double>(f.valid));
     const double o = median(ours), p = median(plain), d = median(discrete), e = median(each), q = median(pipelined),
                  w = median(walked);
+    const double pq = median(pipe_vs_plain), dq = median(pipe_vs_discrete);
     std::printf("  %-6s %8.0f %10.1f %10.1f %11.1f %10.1f %12.1f %12.1f %9.2fx %9.2fx %9.2fx %9.2fx\n",
-                scenes[s].name, median(valid), o, q, w, e, p, d, p / o, d / o, p / q, d / q);
+                scenes[s].name, median(valid), o, q, w, e, p, d, p / o, d / o, pq, dq);
     if (!ours_only) {
+      std::string per_round;
+      for (std::size_t r = 0; r < pipe_vs_plain.size(); ++r) {
+        char one[64];
+        std::snprintf(one, sizeof one, "%s%.1fx / %.2fx", r ? ", " : "", pipe_vs_plain[r], pipe_vs_discrete[r]);
+        per_round += one;
+      }
+      std::printf("         pipelined vs octomap / vs discretized, per round: %s\n", per_round.c_str());
       printAgreement("shared free space vs whole rays", "whole-ray", vs_whole);
       printAgreement("ours vs one ray per point, walked whole", "per-point", vs_per_point);
     }
@@ -308,10 +338,10 @@ int main(int argc, char** argv) {
                   "%s\"%s\": {\"points\": %.0f, \"ours_ms\": %.2f, \"whole_rays_ms\": %.2f, \"ours_per_point_ms\": %.2f, "
                   "\"octomap_ms\": %.2f, \"discretized_ms\": %.2f, \"same_class\": %.4f, \"occupied_lost\": %.4f, "
                   "\"same_class_vs_whole_rays\": %.4f, \"slice_same_vs_whole_rays\": %.4f, \"pipelined_ms\": %.2f, "
-                  "\"pipelined_same_map\": %s}",
+                  "\"pipelined_same_map\": %s, \"pipelined_vs_octomap\": %.2f, \"pipelined_vs_discretized\": %.2f}",
                   s ? ", " : "", scenes[s].name, median(valid), o, w, e, p, d, vs_per_point.sameShare(),
                   vs_per_point.occupiedLostShare(), vs_whole.sameShare(), vs_whole.sliceSameShare(), q,
-                  pipelined_same ? "true" : "false");
+                  pipelined_same ? "true" : "false", pq, dq);
     json += part;
     all_same = all_same && pipelined_same;
   }
