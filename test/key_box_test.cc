@@ -67,13 +67,12 @@ TEST(KeyBox, CoordToKeySafeIsOctoMapsKeyInsideAndRefusesOutside) {
 }
 
 // The box of a list of keys (eight at a time where there are eight) is the one key-by-key adds
-// give: for every count up to 40 and a large one, keys anywhere in the 16-bit range (both sides of
-// the top bit, where signed and unsigned order differ), at 0 and 0xFFFF, and with each axis's
-// extreme in any position (so in every lane of the eight-key rounds and in the remainder).
+// give: for every count up to 40 and for counts above 1 000, random keys anywhere in the 16-bit
+// range or around its top bit (where signed and unsigned order differ), some with 0 and 0xFFFF on
+// a random axis: so an axis's extreme falls in every lane of the eight-key rounds and in the rest.
 TEST(KeyBox, OfIsTheBoxOfEveryKey) {
   std::mt19937 rng(43);
   std::uniform_int_distribution<int> word(0, 0xFFFF), near_top(0x7FF0, 0x8010);
-  std::size_t checked = 0;
   for (int trial = 0; trial < 300; ++trial) {
     const std::size_t n = trial < 240 ? std::size_t(trial % 41) : std::size_t(1000 + trial);
     std::vector<octomap::OcTreeKey> keys;
@@ -95,7 +94,5 @@ TEST(KeyBox, OfIsTheBoxOfEveryKey) {
       ASSERT_EQ(box.min[d], expected.min[d]) << "axis " << d << ", " << n << " keys, trial " << trial;
       ASSERT_EQ(box.max[d], expected.max[d]) << "axis " << d << ", " << n << " keys, trial " << trial;
     }
-    ++checked;
   }
-  EXPECT_EQ(checked, 300u);
 }
