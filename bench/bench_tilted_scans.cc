@@ -4,7 +4,9 @@
 // session's x, y, yaw plus IMU-style roll and pitch noise (sigma 0.6 deg, at most 1.1 deg) and a
 // base height that moves by a centimetre or two; base_link -> laser a static mount 0.10 m forward,
 // 0.26 m up, yawed 0.02 rad. The lidar is RPLIDAR-like: 720 beams over 360 deg, 12 m, REP 117
-// (+inf for no return). Prints medians over repetitions (ms per scan) and their ratio.
+// (+inf for no return). Prints medians over repetitions (ms per scan) and their ratio, and the
+// median of each repetition's own ratio (the two sessions timed one after the other, the order
+// turned every repetition).
 //
 //   bench_tilted_scans [--repeats N] [--resolution M] [--cold-mb MB] [--pause-ms MS] [--slice-report DIR]
 //                      [--tilted-only | --level-only]
@@ -203,9 +205,20 @@ int main(int argc, char** argv) {
   std::vector<double> level_ms, tilted_ms;
   std::size_t level_ok = 0, tilted_ok = 0;
   double level_updates = 0.0, tilted_updates = 0.0, level_changed = 0.0, tilted_changed = 0.0;
+  // Each repetition times both sessions, the order turned every repetition, and gives a ratio of
+  // its own: on these virtual machines the speed moves within a run (session 43: level scans
+  // 0.42-0.70 ms between runs minutes apart), and a ratio of two runs seconds apart holds better.
+  std::vector<double> ratios;
   for (int r = 0; r < repeats; ++r) {
-    level_ms.push_back(tilted_only ? 1.0 : msPerScan(level, resolution, cold_mb, pause_ms, &level_ok, &level_updates, &level_changed));
-    tilted_ms.push_back(level_only ? 1.0 : msPerScan(tilted, resolution, cold_mb, pause_ms, &tilted_ok, &tilted_updates, &tilted_changed));
+    const auto time_level = [&] {
+      level_ms.push_back(tilted_only ? 1.0 : msPerScan(level, resolution, cold_mb, pause_ms, &level_ok, &level_updates, &level_changed));
+    };
+    const auto time_tilted = [&] {
+      tilted_ms.push_back(level_only ? 1.0 : msPerScan(tilted, resolution, cold_mb, pause_ms, &tilted_ok, &tilted_updates, &tilted_changed));
+    };
+    if (r % 2 == 0) time_level(), time_tilted();
+    else time_tilted(), time_level();
+    ratios.push_back(tilted_ms.back() / level_ms.back());
     std::fprintf(stderr, "\rrepetition %d/%d", r + 1, repeats);
   }
   std::fprintf(stderr, "\n");
@@ -220,6 +233,8 @@ int main(int argc, char** argv) {
   std::printf("through a real robot's tf (~1 deg pitch/roll): %.3f ms/scan (%zu inserted, %.0f voxel updates per scan, "
               "%.0f changed)\n",
               b, tilted_ok, tilted_updates, tilted_changed);
-  std::printf("tilted / level: %.2f\n", b / a);
+  std::printf("tilted / level: %.2f (the medians'; the repetitions' own ratios: median %.2f, %.2f-%.2f)\n", b / a,
+              osm::bench::median(ratios), *std::min_element(ratios.begin(), ratios.end()),
+              *std::max_element(ratios.begin(), ratios.end()));
   return 0;
 }
