@@ -206,8 +206,8 @@ int main(int argc, char** argv) {
   std::size_t level_ok = 0, tilted_ok = 0;
   double level_updates = 0.0, tilted_updates = 0.0, level_changed = 0.0, tilted_changed = 0.0;
   // Each repetition times both sessions, the order turned every repetition, and gives a ratio of
-  // its own: on these virtual machines the speed moves within a run (session 43: level scans
-  // 0.42-0.70 ms between runs minutes apart), and a ratio of two runs seconds apart holds better.
+  // its own: on these virtual machines the speed moves within a run (session 43: one run's
+  // repetitions gave tilted / level from 0.86 to 1.70), and two timings seconds apart compare better.
   std::vector<double> ratios;
   for (int r = 0; r < repeats; ++r) {
     const auto time_level = [&] {
