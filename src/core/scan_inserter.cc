@@ -164,8 +164,8 @@ void ScanInserter::fanOf(const Beam& beam, double length, double tan_half, std::
 
 // First pass over a scan's beams: their trace lengths (trace_length_), their rays with the keys of
 // their far ends (rays_, beam b's from ray_begin_[b] to ray_begin_[b + 1]; none for a beam that
-// leaves the octree's key range), and the key box of all ray ends (rays are straight, so the box of the origin and the ends holds every
-// voxel they cross).
+// leaves the octree's key range), and the key box of all ray ends (rays are straight, so the box
+// of the origin and the ends holds every voxel they cross).
 KeyBox ScanInserter::prepareBeams(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
                                   const std::vector<Beam>& beams, double tan_half) {
   rays_.clear();
