@@ -333,8 +333,9 @@ class VoxelCentres {
 // Second pass: every voxel each beam kept by prepareBeams reaches, with the model's evidence for it, handed to
 // `sink(index, value)` with the voxel's index in `cells` (PackedKeys or the evidence window; zero
 // evidence is not handed on).
-template <typename Cells, typename Sink>
-void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
+// Not inlined: each instantiation a function of its own (see Walks).
+template <ScanInserter::Walks kWalks, typename Cells, typename Sink>
+__attribute__((noinline)) void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
                               const std::vector<Beam>& beams, double half_angle, const Cells& cells, Sink&& sink,
                               bool shortcuts, int shared_free_run) {
   using Index = typename Cells::Index;
@@ -384,7 +385,7 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
     const auto in_layer = [&](const octomap::OcTreeKey& k, double* along, double* lateral_sq) __attribute__((
                               always_inline)) { centres.placeInLayer(k, beam, along, lateral_sq); };
     // Scan beams of a level scan: the axis and `across` lie in the plane.
-    const bool level_beam = beam.direction.z() == 0.0 && beam.across.z() == 0.0 && !beam.across.isZero();
+    const bool level_beam = kWalks == Walks::kLevel || (kWalks == Walks::kAll && isLevelBeam(beam));
     const double length = trace_length_[b];
     for (std::size_t r = ray_begin_[b]; r < ray_begin_[b + 1]; ++r) {
       const Ray& ray = rays_[r];
@@ -400,7 +401,7 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
                     half_diagonal, &s_lo, &s_hi);
       }
       const double t_lo = (s_lo - ray.start) / (length - ray.start), t_hi = (s_hi - ray.start) / (length - ray.start);
-      if constexpr (std::is_same_v<Cells, ScanEvidence>) {
+      if constexpr (std::is_same_v<Cells, ScanEvidence> && kWalks == Walks::kAll) {
         if (shared_free_run > 0 && !fanned) {
           // From the end back to the sensor: the end's evidence first, then the free valley until
           // `shared_free_run` voxels in a row already hold it. Each voxel is judged as the forward
@@ -439,9 +440,13 @@ void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTr
           continue;
         }
       }
-      if (level_beam) {  // its rays stay in the origin's layer: from.z == far.z exactly
-        traverseLevel(*tree_, from, far, from_key, ray.far_key, cells, visitor(t_lo, t_hi, in_layer));
-      } else {
+      if constexpr (kWalks != Walks::kSpace) {
+        if (level_beam) {  // its rays stay in the origin's layer: from.z == far.z exactly
+          traverseLevel(*tree_, from, far, from_key, ray.far_key, cells, visitor(t_lo, t_hi, in_layer));
+          continue;
+        }
+      }
+      if constexpr (kWalks != Walks::kLevel) {
         traverseVoxels(*tree_, from, far, from_key, ray.far_key, cells, visitor(t_lo, t_hi, in_3d));
       }
     }
@@ -487,13 +492,29 @@ std::vector<KeyUpdate> ScanInserter::computeUpdates(const Eigen::Vector3d& origi
 // The evidence of the beams prepareBeams kept, into the window begun over their box.
 void ScanInserter::traceIntoWindow(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
                                    const std::vector<Beam>& beams, double half_angle, int shared_free_run) {
+  // Each kind of scan through the tracer compiled for its walks alone (Walks).
+  std::size_t level = 0;
+  for (const Beam& beam : beams) level += isLevelBeam(beam);
+  const bool shared_free_space = evidence_.combining() == EvidenceCombining::kOccupiedWins && shared_free_run > 0;
+  const Walks walks = shared_free_space || (level > 0 && level < beams.size()) ? Walks::kAll
+                      : level > 0                                              ? Walks::kLevel
+                                                                               : Walks::kSpace;
   // The tracer instantiated per rule (scans sum, clouds by default keep the occupied).
   evidence_.withCombining([&](auto rule) {
-    traceBeams(
-        origin, origin_key, beams, half_angle, evidence_,
-        [this](ScanEvidence::Index index, float value)
-            __attribute__((always_inline)) { evidence_.addAtAs<decltype(rule)::value>(index, value); },
-        /*shortcuts=*/true, decltype(rule)::value == EvidenceCombining::kOccupiedWins ? shared_free_run : 0);
+    const auto sink = [this](ScanEvidence::Index index, float value)
+                          __attribute__((always_inline)) { evidence_.addAtAs<decltype(rule)::value>(index, value); };
+    const int run = decltype(rule)::value == EvidenceCombining::kOccupiedWins ? shared_free_run : 0;
+    switch (walks) {
+      case Walks::kLevel:
+        traceBeams<Walks::kLevel>(origin, origin_key, beams, half_angle, evidence_, sink, /*shortcuts=*/true);
+        break;
+      case Walks::kSpace:
+        traceBeams<Walks::kSpace>(origin, origin_key, beams, half_angle, evidence_, sink, /*shortcuts=*/true);
+        break;
+      case Walks::kAll:
+        traceBeams<Walks::kAll>(origin, origin_key, beams, half_angle, evidence_, sink, /*shortcuts=*/true, run);
+        break;
+    }
   });
 }
 
