@@ -181,40 +181,76 @@ TEST(LayerCache, RepeatsUpdateNodeArithmeticPerVoxel) {
   expectSameTree(cached, reference);
 }
 
-// flushOldest writes the values that have waited longest, leaves the rest waiting, and a voxel
-// changed again after being written waits again (behind the others).
-TEST(LayerCache, FlushOldestWritesTheLongestWaitingFirst) {
+// flushOldest writes whole tiles, those whose first waiting value has waited longest, until it
+// has written as many values as asked; a tile changed again after being written waits again
+// (behind the others).
+TEST(LayerCache, FlushOldestWritesTheLongestWaitingTilesFirst) {
   octomap::OcTree cached(0.1), reference(0.1);
   for (octomap::OcTree* t : {&cached, &reference}) clampLikeTheMapper(t);
   LayerCache cache(&cached);
-  std::vector<octomap::OcTreeKey> keys;
-  for (unsigned i = 0; i < 100; ++i) keys.emplace_back(32768 + i, 32768 + (i * 7) % 13, 32770);
-  for (const octomap::OcTreeKey& k : keys) {
-    ASSERT_TRUE(cache.apply(k, 0.85f));
-    reference.updateNode(k, 0.85f);
-  }
-  cache.flushOldest(30);
-  EXPECT_EQ(cache.dirtyCount(), 70u);
-  for (unsigned i = 0; i < 100; ++i) {
-    const octomap::OcTreeNode* node = cached.search(keys[i]);
-    EXPECT_EQ(node != nullptr, i < 30) << "voxel " << i;
-    if (node) {
-      EXPECT_EQ(node->getLogOdds(), 0.85f);
+  // Tiles A, B and C side by side in one layer, 10, 20 and 30 voxels changed in that order.
+  std::vector<std::vector<octomap::OcTreeKey>> tiles(3);
+  for (unsigned t = 0; t < 3; ++t) {
+    for (unsigned i = 0; i < 10 * (t + 1); ++i) {
+      tiles[t].emplace_back(32768 + 64 * t + i, 32768 + (i * 7) % 13, 32770);
     }
   }
-  ASSERT_TRUE(cache.apply(keys[0], -0.4f));  // written, changed again: waits behind the other 70
-  reference.updateNode(keys[0], -0.4f);
-  EXPECT_EQ(cache.dirtyCount(), 71u);
-  cache.flushOldest(60);  // 30..89: past the middle, so the written part is dropped
-  EXPECT_EQ(cache.dirtyCount(), 11u);
-  EXPECT_EQ(cached.search(keys[89])->getLogOdds(), 0.85f);
-  EXPECT_EQ(cached.search(keys[90]), nullptr);
-  EXPECT_EQ(cached.search(keys[0])->getLogOdds(), 0.85f) << "its new value has not waited long enough";
+  const auto change = [&](const octomap::OcTreeKey& k, float update) {
+    ASSERT_TRUE(cache.apply(k, update));
+    reference.updateNode(k, update);
+  };
+  for (const auto& tile : tiles) {
+    for (const octomap::OcTreeKey& k : tile) change(k, 0.85f);
+  }
+  change(octomap::OcTreeKey(32768 + 40, 32770, 32770), 0.85f);  // A again: it waits since its first
+  EXPECT_EQ(cache.dirtyCount(), 61u);
+  const auto written = [&](const octomap::OcTreeKey& k) { return cached.search(k) != nullptr; };
+  cache.flushOldest(5);  // all of A
+  EXPECT_EQ(cache.dirtyCount(), 50u);
+  for (const octomap::OcTreeKey& k : tiles[0]) EXPECT_TRUE(written(k));
+  EXPECT_TRUE(written(octomap::OcTreeKey(32768 + 40, 32770, 32770)));
+  for (const octomap::OcTreeKey& k : tiles[1]) EXPECT_FALSE(written(k));
+  change(tiles[0][0], -0.4f);  // written, changed again: waits behind B and C
+  EXPECT_EQ(cache.dirtyCount(), 51u);
+  cache.flushOldest(21);  // B (20) is not enough: C too
+  EXPECT_EQ(cache.dirtyCount(), 1u);
+  for (const octomap::OcTreeKey& k : tiles[2]) EXPECT_TRUE(written(k));
+  EXPECT_EQ(cached.search(tiles[0][0])->getLogOdds(), 0.85f) << "its new value has not waited long enough";
   cache.flushOldest(1000);  // more than wait: all of them
   EXPECT_EQ(cache.dirtyCount(), 0u);
+  EXPECT_EQ(cached.search(tiles[0][0])->getLogOdds(), 0.85f - 0.4f);
   cached.updateInnerOccupancy();
   reference.updateInnerOccupancy();
   expectSameTree(cached, reference);
+}
+
+// A tile's waiting voxels come out of its dirty bits in the order sortInTreeOrder gives them,
+// for any set of them (none, one, some, all), on both sides of the octree's centre key.
+TEST(LayerCache, TilesWaitingVoxelsComeInTreeOrder) {
+  std::mt19937 rng(11);
+  for (const std::uint16_t x0 : {std::uint16_t(32768 - 64), std::uint16_t(32768 + 128)}) {
+    for (const double share : {0.0, 0.0003, 0.01, 0.1, 0.5, 1.0}) {
+      LayerCache::Tile tile(LayerCache::unknownValue(), 32771, x0, 32768 - 192);
+      std::bernoulli_distribution dirty(share);
+      std::vector<KeyUpdate> expected;
+      for (unsigned y = 0; y < LayerCache::kTileSize; ++y) {
+        for (unsigned x = 0; x < LayerCache::kTileSize; ++x) {
+          if (!dirty(rng)) continue;
+          tile.value[LayerCache::cellIndex(x, y)] = float(x) - 0.5f * float(y);
+          tile.dirty[y] |= std::uint64_t{1} << x;
+          expected.push_back({octomap::OcTreeKey(x0 + x, tile.y0 + y, tile.z), float(x) - 0.5f * float(y)});
+        }
+      }
+      sortInTreeOrder(&expected);
+      std::vector<KeyUpdate> got;
+      LayerCache::appendDirtyInTreeOrder(tile, &got);
+      ASSERT_EQ(got.size(), expected.size()) << "share " << share;
+      for (std::size_t i = 0; i < got.size(); ++i) {
+        ASSERT_EQ(got[i].key, expected[i].key) << "share " << share << ", voxel " << i;
+        ASSERT_EQ(got[i].log_odds, expected[i].log_odds);
+      }
+    }
+  }
 }
 
 // A tile over ground the octree holds nothing of starts as known-unknown (one search); one next
@@ -244,13 +280,14 @@ TEST(LayerCache, ForgottenVoxelIsReadAgainAndDirtyMarksArePerVoxel) {
   octomap::OcTree tree(0.1);
   clampLikeTheMapper(&tree);
   LayerCache cache(&tree);
-  const octomap::OcTreeKey a(32768, 32768, 32770), b(32769, 32768, 32770), c(32768 + 63, 32768, 32770);
+  // b in the next tile (voxels are written a tile at a time); c in a's tile and row, 63 voxels on.
+  const octomap::OcTreeKey a(32768, 32768, 32770), b(32768 + 64, 32768, 32770), c(32768 + 63, 32768, 32770);
   ASSERT_TRUE(cache.apply(a, 0.85f));
   ASSERT_TRUE(cache.apply(b, -0.4f));
   EXPECT_EQ(cache.dirtyCount(), 2u);
   ASSERT_TRUE(cache.apply(a, 0.85f));
   EXPECT_EQ(cache.dirtyCount(), 2u) << "a voxel already waiting is listed once";
-  cache.flushOldest(1);  // a only
+  cache.flushOldest(1);  // a's tile: a only
   EXPECT_EQ(tree.search(a)->getLogOdds(), 1.7f);
   EXPECT_EQ(tree.search(b), nullptr);
   ASSERT_TRUE(cache.apply(c, 0.85f));

@@ -37,12 +37,20 @@ class LayerCache {
   static bool isKnown(float value) { return value == value; }
   static bool isUnloaded(float value) { return bitsOf(value) == kUnloadedBits; }
   struct Tile {
-    // Every voxel starts as `initial` (no default: zero would be a known log-odds).
-    explicit Tile(float initial) { std::fill(std::begin(value), std::end(value), initial); }
+    // Every voxel starts as `initial` (no default: zero would be a known log-odds). The tile
+    // holds voxels (x0 .. x0 + 63, y0 .. y0 + 63) of layer z.
+    Tile(float initial, std::uint16_t z, std::uint16_t x0, std::uint16_t y0) : z(z), x0(x0), y0(y0) {
+      std::fill(std::begin(value), std::end(value), initial);
+    }
     float value[kTileSize * kTileSize];
     // Bit (kx & kTileMask) of row (ky & kTileMask): the octree lags behind the cached value.
     std::uint64_t dirty[kTileSize] = {};
+    std::uint16_t z, x0, y0;
+    std::uint32_t dirty_voxels = 0;  // bits set in `dirty`
   };
+  // Appends the tile's dirty voxels with their values to `out`, in the octree's order (as
+  // sortInTreeOrder puts them), read from the dirty bits 8 x 8 voxels at a time.
+  static void appendDirtyInTreeOrder(const Tile& tile, std::vector<KeyUpdate>* out);
   // A dense directory of tiles over a rectangle of tile coordinates that grows as needed.
   struct Layer {
     std::uint16_t z = 0;
@@ -88,7 +96,7 @@ class LayerCache {
     // updateNode's early out, decided here without a call (false for a voxel without a value).
     const float old = slot->value[index];
     if (update >= 0.0f ? old >= tree_->getClampingThresMaxLog() : old <= tree_->getClampingThresMinLog()) return false;
-    return applyTo({&slot->value[index], &slot->dirty[ky & kTileMask], octomap::OcTreeKey(kx, ky, layer.z)}, update,
+    return applyTo({&slot->value[index], slot.get(), octomap::OcTreeKey(kx, ky, layer.z)}, update,
                    change);
   }
   // The same for a voxel of any layer (cached from now on).
@@ -104,19 +112,21 @@ class LayerCache {
   void forget(const octomap::OcTreeKey& key);
   // Writes every value the octree lags behind into it. The cache stays valid.
   void flush();
-  // Writes the `count` values that have waited longest (dirty since the earliest), so that a
-  // backlog can be kept bounded a little at a time instead of all at once.
+  // Writes at least `count` values (all, if fewer wait), a whole tile at a time: the tiles whose
+  // first waiting value has waited longest. A backlog is kept bounded a little at a time instead
+  // of all at once.
   void flushOldest(std::size_t count);
   // Forgets everything (after the octree was changed behind the cache's back, e.g. replaced).
   void clear();
-  std::size_t dirtyCount() const { return dirty_.size() - dirty_head_; }
+  std::size_t dirtyCount() const { return dirty_voxels_; }
   std::size_t memoryBytes() const;
 
  private:
   struct Ref {
     float* value = nullptr;
-    std::uint64_t* dirty_row = nullptr;  // the tile's dirty bits of the voxel's row
+    Tile* tile = nullptr;  // the voxel's
     octomap::OcTreeKey key;
+    std::uint64_t& dirtyRow() const { return tile->dirty[key[1] & kTileMask]; }
     std::uint64_t dirtyBit() const { return std::uint64_t{1} << (key[0] & kTileMask); }
   };
   static float fromBits(std::uint32_t bits) {
@@ -135,10 +145,16 @@ class LayerCache {
   octomap::OcTree* tree_;
   bool hold_everything_ = false;
   std::vector<std::unique_ptr<Layer>> layers_;
-  void writeBack(std::size_t begin, std::size_t end);  // dirty_[begin, end) into the octree
+  // Writes the tile's dirty voxels into the octree; how many.
+  std::size_t writeBack(Tile* tile);
 
-  std::vector<Ref> dirty_;  // voxels the octree lags behind, from dirty_head_ on, oldest first
-  std::size_t dirty_head_ = 0;  // dirty_[0, dirty_head_) were written by flushOldest
+  // The tiles holding values the octree lags behind, from dirty_head_ on, in the order their first
+  // such value came. A tile's voxels are written together, in tree order straight from its dirty
+  // bits: a list of the voxels had to be sorted first, a third of a tilted session's writes into
+  // the octree (issue 21).
+  std::vector<Tile*> dirty_tiles_;
+  std::size_t dirty_head_ = 0;  // dirty_tiles_[0, dirty_head_) were written by flushOldest
+  std::size_t dirty_voxels_ = 0;
   std::vector<KeyUpdate> flush_buffer_;
 };
 

@@ -39,6 +39,8 @@ void applySortedUpdates(octomap::OcTree* tree, const std::vector<KeyUpdate>& upd
 // Sets each key's log-odds to the given value (already within the clamping bounds), creating
 // nodes as needed; the same tree as tree->setNodeValue(key, value) per key. Reorders `values`.
 void setValuesInTreeOrder(octomap::OcTree* tree, std::vector<KeyUpdate>* values);
+// setValuesInTreeOrder for values already in that order.
+void setSortedValues(octomap::OcTree* tree, const std::vector<KeyUpdate>& values);
 
 // The straightforward reference: updateNode per voxel, in the given order.
 void applyUpdatesOneByOne(octomap::OcTree* tree, const std::vector<KeyUpdate>& updates);

@@ -55,10 +55,10 @@ void LayerCache::cover(Layer* l, unsigned kx0, unsigned ky0, unsigned kx1, unsig
 // layer: loaded voxel by voxel on first use instead, a tilted scan's new layers cost a root-to-leaf
 // search per voxel it changed and per layer of every slice column it changed (issue 21).
 std::unique_ptr<LayerCache::Tile> LayerCache::newTile(std::uint16_t z, unsigned kx, unsigned ky) const {
-  auto tile = std::make_unique<Tile>(unknownValue());
+  const unsigned x0 = kx & ~kTileMask, y0 = ky & ~kTileMask;
+  auto tile = std::make_unique<Tile>(unknownValue(), z, static_cast<std::uint16_t>(x0), static_cast<std::uint16_t>(y0));
   const unsigned depth = tree_->getTreeDepth();
   if (!tree_->search(octomap::OcTreeKey(kx, ky, z), depth - kTileBits)) return tile;
-  const unsigned x0 = kx & ~kTileMask, y0 = ky & ~kTileMask;
   const octomap::OcTreeKey lo(x0, y0, z), hi(x0 + kTileMask, y0 + kTileMask, z);
   for (auto it = tree_->begin_leafs_bbx(lo, hi), end = tree_->end_leafs_bbx(); it != end; ++it) {
     // A leaf above the bottom (pruned) covers `span` keys per axis from its lower corner.
@@ -105,9 +105,11 @@ bool LayerCache::applyTo(const Ref& ref, float update, VoxelChange* change) {
   if (known && value == old) return false;
   *ref.value = value;
   if (change) *change = {old, value};
-  if (!(*ref.dirty_row & ref.dirtyBit())) {
-    *ref.dirty_row |= ref.dirtyBit();
-    dirty_.push_back(ref);
+  std::uint64_t& row = ref.dirtyRow();
+  if (!(row & ref.dirtyBit())) {
+    row |= ref.dirtyBit();
+    ++dirty_voxels_;
+    if (ref.tile->dirty_voxels++ == 0) dirty_tiles_.push_back(ref.tile);
   }
   return true;
 }
@@ -137,52 +139,103 @@ void LayerCache::forget(const octomap::OcTreeKey& key) {
   tile->value[cellIndex(key[0], key[1])] = unloadedValue();
 }
 
-void LayerCache::writeBack(std::size_t begin, std::size_t end) {
-  flush_buffer_.clear();
-  flush_buffer_.reserve(end - begin);
-  for (std::size_t i = begin; i < end; ++i) {
-    const Ref& ref = dirty_[i];
-    flush_buffer_.push_back({ref.key, *ref.value});
-    *ref.dirty_row &= ~ref.dirtyBit();
+namespace {
+
+// The positions p of a 64-bit mask whose bit b is set and bit a (a > b) clear: swapping bits a
+// and b of every position moves these up by 2^a - 2^b.
+constexpr std::uint64_t positionsToSwap(int a, int b) {
+  std::uint64_t mask = 0;
+  for (int p = 0; p < 64; ++p) {
+    if (((p >> b) & 1) && !((p >> a) & 1)) mask |= std::uint64_t{1} << p;
   }
-  setValuesInTreeOrder(tree_, &flush_buffer_);
+  return mask;
 }
 
-void LayerCache::flush() {
-  if (dirtyCount() == 0) return;
-  writeBack(dirty_head_, dirty_.size());
-  dirty_.clear();
-  dirty_head_ = 0;
-  // A large one-off flush (offline mapping flushes once, at the end) must not keep its buffers.
-  constexpr std::size_t kKeepCapacity = std::size_t{1} << 17;
-  if (flush_buffer_.capacity() > kKeepCapacity) {
-    flush_buffer_ = {};
-    dirty_ = {};
+template <int a, int b>
+std::uint64_t swapPositionBits(std::uint64_t m) {
+  constexpr int d = (1 << a) - (1 << b);
+  const std::uint64_t t = (m ^ (m >> d)) & positionsToSwap(a, b);
+  return m ^ t ^ (t << d);
+}
+
+// An 8 x 8 mask with bit 8 y + x for cell (x, y) (bits y2 y1 y0 x2 x1 x0 of its position) turned
+// into one with the bit at the cell's Morton position (y2 x2 y1 x1 y0 x0), OctoMap's order of
+// the cells of one layer: three swaps of position bits.
+std::uint64_t rowMajorToMorton(std::uint64_t m) {
+  return swapPositionBits<2, 1>(swapPositionBits<4, 3>(swapPositionBits<3, 2>(m)));
+}
+
+// The x (even bits) and y (odd bits) of a 6-bit Morton position.
+constexpr unsigned mortonX(unsigned k) { return (k & 1) | ((k >> 1) & 2) | ((k >> 2) & 4); }
+constexpr unsigned mortonY(unsigned k) { return mortonX(k >> 1); }
+
+// Bit i of the result set where byte i of v is not zero.
+std::uint64_t nonZeroBytes(std::uint64_t v) {
+  v |= v >> 4;
+  v |= v >> 2;
+  v |= v >> 1;
+  return ((v & 0x0101010101010101ULL) * 0x0102040810204080ULL) >> 56;
+}
+
+}  // namespace
+
+// Within a tile (fixed z, the same high bits of x and y) the octree's order is the Morton order
+// of (x, y): 8 x 8 blocks in Morton order, the voxels of a block in Morton order.
+void LayerCache::appendDirtyInTreeOrder(const Tile& tile, std::vector<KeyUpdate>* out) {
+  static_assert(kTileSize == 64, "8 x 8 blocks of 8 x 8 voxels");
+  std::uint64_t blocks = 0;  // bit 8 by + bx: block (bx, by) has a dirty voxel
+  for (unsigned by = 0; by < 8; ++by) {
+    std::uint64_t rows = 0;
+    for (unsigned r = 0; r < 8; ++r) rows |= tile.dirty[8 * by + r];
+    blocks |= nonZeroBytes(rows) << (8 * by);
+  }
+  for (std::uint64_t order = rowMajorToMorton(blocks); order != 0; order &= order - 1) {
+    const unsigned block = unsigned(__builtin_ctzll(order));
+    const unsigned bx = mortonX(block), by = mortonY(block);
+    std::uint64_t cells = 0;  // bit 8 y + x: voxel (8 bx + x, 8 by + y) is dirty
+    for (unsigned y = 0; y < 8; ++y) cells |= ((tile.dirty[8 * by + y] >> (8 * bx)) & 0xFF) << (8 * y);
+    for (std::uint64_t in_block = rowMajorToMorton(cells); in_block != 0; in_block &= in_block - 1) {
+      const unsigned k = unsigned(__builtin_ctzll(in_block));
+      const unsigned x = 8 * bx + mortonX(k), y = 8 * by + mortonY(k);
+      out->push_back({octomap::OcTreeKey(tile.x0 + x, tile.y0 + y, tile.z), tile.value[cellIndex(x, y)]});
+    }
   }
 }
+
+std::size_t LayerCache::writeBack(Tile* tile) {
+  flush_buffer_.clear();
+  appendDirtyInTreeOrder(*tile, &flush_buffer_);
+  std::fill(std::begin(tile->dirty), std::end(tile->dirty), 0);
+  dirty_voxels_ -= tile->dirty_voxels;
+  tile->dirty_voxels = 0;
+  setSortedValues(tree_, flush_buffer_);
+  return flush_buffer_.size();
+}
+
+void LayerCache::flush() { flushOldest(dirty_voxels_); }
 
 void LayerCache::flushOldest(std::size_t count) {
-  const std::size_t end = dirty_head_ + std::min(count, dirtyCount());
-  if (end == dirty_head_) return;
-  writeBack(dirty_head_, end);
-  dirty_head_ = end;
-  if (dirty_head_ == dirty_.size()) {
-    dirty_.clear();
+  for (std::size_t written = 0; written < count && dirty_head_ < dirty_tiles_.size();) {
+    written += writeBack(dirty_tiles_[dirty_head_++]);
+  }
+  if (dirty_head_ == dirty_tiles_.size()) {
+    dirty_tiles_.clear();
     dirty_head_ = 0;
-  } else if (dirty_head_ > dirty_.size() / 2) {  // the written part dropped now and then: O(1) per entry
-    dirty_.erase(dirty_.begin(), dirty_.begin() + std::ptrdiff_t(dirty_head_));
+  } else if (dirty_head_ > dirty_tiles_.size() / 2) {  // the written part dropped now and then: O(1) per tile
+    dirty_tiles_.erase(dirty_tiles_.begin(), dirty_tiles_.begin() + std::ptrdiff_t(dirty_head_));
     dirty_head_ = 0;
   }
 }
 
 void LayerCache::clear() {
   layers_.clear();
-  dirty_.clear();
+  dirty_tiles_.clear();
   dirty_head_ = 0;
+  dirty_voxels_ = 0;
 }
 
 std::size_t LayerCache::memoryBytes() const {
-  std::size_t bytes = sizeof(*this) + dirty_.capacity() * sizeof(Ref) +
+  std::size_t bytes = sizeof(*this) + dirty_tiles_.capacity() * sizeof(Tile*) +
                       flush_buffer_.capacity() * sizeof(KeyUpdate);
   for (const auto& l : layers_) {
     bytes += sizeof(Layer) + l->tiles.capacity() * sizeof(std::unique_ptr<Tile>);

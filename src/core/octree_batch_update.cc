@@ -223,6 +223,10 @@ void setValuesInTreeOrder(octomap::OcTree* tree, std::vector<KeyUpdate>* values)
   applySorted(tree, *values, true, nullptr);
 }
 
+void setSortedValues(octomap::OcTree* tree, const std::vector<KeyUpdate>& values) {
+  applySorted(tree, values, true, nullptr);
+}
+
 void applyUpdatesOneByOne(octomap::OcTree* tree, const std::vector<KeyUpdate>& updates) {
   for (const KeyUpdate& u : updates) tree->updateNode(u.key, u.log_odds);
 }
