@@ -140,7 +140,40 @@ class LayerCache {
     return bits;
   }
   std::unique_ptr<Tile> newTile(std::uint16_t z, unsigned kx, unsigned ky) const;
-  bool applyTo(const Ref& ref, float update, VoxelChange* change = nullptr);
+  // The octree's value of a voxel (unknownValue() when it holds none).
+  float valueInTree(const octomap::OcTreeKey& key) const;
+  // The arithmetic of OccupancyOcTreeBase::updateNode on one voxel: a voxel the octree does not
+  // hold starts at 0; one already at the bound the update pushes towards is left alone; else the
+  // update is added in float and the sum clamped. Inline: called once per changed voxel, out of
+  // line it cost a tilted session 1.1 % more instructions (a tilted scan changes 2.5 times as
+  // many voxels as a level one; issue 21).
+  __attribute__((always_inline)) inline bool applyTo(const Ref& ref, float update, VoxelChange* change = nullptr) {
+    float old = *ref.value;
+    if (__builtin_expect(isUnloaded(old), 0)) *ref.value = old = valueInTree(ref.key);
+    const bool known = isKnown(old);
+    const float lo = tree_->getClampingThresMinLog(), hi = tree_->getClampingThresMaxLog();
+    float value = 0.0f;
+    if (known) {
+      if ((update >= 0.0f && old >= hi) || (update <= 0.0f && old <= lo)) return false;
+      value = old;
+    }
+    value += update;
+    if (value < lo) {
+      value = lo;
+    } else if (value > hi) {
+      value = hi;
+    }
+    if (known && value == old) return false;
+    *ref.value = value;
+    if (change) *change = {old, value};
+    std::uint64_t& row = ref.dirtyRow();
+    if (!(row & ref.dirtyBit())) {
+      row |= ref.dirtyBit();
+      ++dirty_voxels_;
+      if (ref.tile->dirty_voxels++ == 0) dirty_tiles_.push_back(ref.tile);
+    }
+    return true;
+  }
 
   octomap::OcTree* tree_;
   bool hold_everything_ = false;

@@ -79,39 +79,9 @@ std::unique_ptr<LayerCache::Tile> LayerCache::newTile(std::uint16_t z, unsigned 
   return tile;
 }
 
-// The arithmetic of OccupancyOcTreeBase::updateNode on one voxel: a voxel the octree does not
-// hold starts at 0; one already at the bound the update pushes towards is left alone; else the
-// update is added in float and the sum clamped.
-bool LayerCache::applyTo(const Ref& ref, float update, VoxelChange* change) {
-  float old = *ref.value;
-  if (isUnloaded(old)) {
-    const octomap::OcTreeNode* node = tree_->search(ref.key);
-    old = node ? node->getLogOdds() : unknownValue();
-    *ref.value = old;
-  }
-  const bool known = isKnown(old);
-  const float lo = tree_->getClampingThresMinLog(), hi = tree_->getClampingThresMaxLog();
-  float value = 0.0f;
-  if (known) {
-    if ((update >= 0.0f && old >= hi) || (update <= 0.0f && old <= lo)) return false;
-    value = old;
-  }
-  value += update;
-  if (value < lo) {
-    value = lo;
-  } else if (value > hi) {
-    value = hi;
-  }
-  if (known && value == old) return false;
-  *ref.value = value;
-  if (change) *change = {old, value};
-  std::uint64_t& row = ref.dirtyRow();
-  if (!(row & ref.dirtyBit())) {
-    row |= ref.dirtyBit();
-    ++dirty_voxels_;
-    if (ref.tile->dirty_voxels++ == 0) dirty_tiles_.push_back(ref.tile);
-  }
-  return true;
+float LayerCache::valueInTree(const octomap::OcTreeKey& key) const {
+  const octomap::OcTreeNode* node = tree_->search(key);
+  return node ? node->getLogOdds() : unknownValue();
 }
 
 bool LayerCache::apply(const octomap::OcTreeKey& key, float update, VoxelChange* change) {
