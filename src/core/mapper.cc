@@ -59,10 +59,11 @@ InsertResult Mapper::insert(const Scan& scan) {
   return result;
 }
 
-// Above the bound, the voxels that have waited longest are written, an eighth of the bound at a
-// time: a flush per scan stays as short as one of 12 500 voxels, while a voxel stays in the cache
-// long enough for the many scans that keep changing it to cost one write (a tilted scan changes
-// 2 000 voxels, many of them again and again, issue 21).
+// Above the bound, the voxels that have waited longest are written (whole tiles: at most one
+// tile's 4 096 more), an eighth of the bound at a time: a flush per scan stays about as short as
+// one of 12 500 voxels, while a voxel stays in the cache long enough for the many scans that keep
+// changing it to cost one write (a tilted scan changes 2 000 voxels, many of them again and
+// again, issue 21).
 void Mapper::boundUnflushed() {
   if (lent_) return;
   LayerCache& cache = inserter_->cache();
