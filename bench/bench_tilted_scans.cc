@@ -115,7 +115,7 @@ class TimedSession {
     }
   }
   // ms per scan; also the scans inserted, the voxel updates per scan and the voxels per scan whose
-  // value changed (those cost a dirty entry, a flush and a slice column).
+  // value changed (those cost a dirty mark, a write into the octree and a slice column).
   double msPerScan(std::size_t* inserted, double* updates_per_scan, double* changed_per_scan) const {
     *inserted = inserted_;
     *updates_per_scan = double(mapper_.stats().voxel_updates) / scans_.size();
@@ -237,7 +237,8 @@ int main(int argc, char** argv) {
   // repetitions gave tilted / level from 0.86 to 1.70), and timings close in time compare better.
   std::vector<double> ratios;
   for (int r = 0; r < repeats; ++r) {
-    TimedSession level_session(level, resolution, cold_mb, pause_ms), tilted_session(tilted, resolution, cold_mb, pause_ms);
+    TimedSession level_session(level, resolution, cold_mb, pause_ms);
+    TimedSession tilted_session(tilted, resolution, cold_mb, pause_ms);
     if (level_only || tilted_only) {
       (level_only ? level_session : tilted_session).insertNext(level.size());
     } else {

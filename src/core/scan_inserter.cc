@@ -335,9 +335,11 @@ class VoxelCentres {
 // evidence is not handed on).
 // Not inlined: each instantiation a function of its own (see Walks).
 template <ScanInserter::Walks kWalks, typename Cells, typename Sink>
-__attribute__((noinline)) void ScanInserter::traceBeams(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
-                              const std::vector<Beam>& beams, double half_angle, const Cells& cells, Sink&& sink,
-                              bool shortcuts, int shared_free_run) {
+__attribute__((noinline)) void ScanInserter::traceBeams(const Eigen::Vector3d& origin,
+                                                        const octomap::OcTreeKey& origin_key,
+                                                        const std::vector<Beam>& beams, double half_angle,
+                                                        const Cells& cells, Sink&& sink, bool shortcuts,
+                                                        int shared_free_run) {
   using Index = typename Cells::Index;
   if (!cone_ || cone_->halfAngle() != half_angle) cone_.emplace(model_, half_angle);
   const double tan_full = std::tan(model_.fullWeightAngle(half_angle));
