@@ -81,11 +81,13 @@ bool sortByCode(std::uint64_t* codes, KeyUpdate* updates, std::uint64_t* codes_t
 // bytes that differ are sorted (usually 3 of 6): far cheaper than a comparison sort.
 void sortInTreeOrder(std::vector<KeyUpdate>* updates) {
   const std::size_t n = updates->size();
-  // Scratch left uninitialised (value-initialised, its ~30 bytes per update were written twice).
+  // Scratch left uninitialised (as vectors, its 28 bytes per update were zeroed first for nothing).
   const std::unique_ptr<std::uint64_t[]> codes(new std::uint64_t[n]), codes_tmp(new std::uint64_t[n]);
   const std::unique_ptr<KeyUpdate[]> tmp(new KeyUpdate[n]);
   for (std::size_t i = 0; i < n; ++i) codes[i] = treeOrder((*updates)[i].key);
-  if (sortByCode(codes.get(), updates->data(), codes_tmp.get(), tmp.get(), n)) std::copy(tmp.get(), tmp.get() + n, updates->begin());
+  if (sortByCode(codes.get(), updates->data(), codes_tmp.get(), tmp.get(), n)) {
+    std::copy(tmp.get(), tmp.get() + n, updates->begin());
+  }
 }
 
 namespace {
