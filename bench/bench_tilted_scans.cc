@@ -14,7 +14,7 @@
 // --interleave K (default 32): the two sessions are mapped side by side, K scans of one, then K
 // of the other (two mappers); 0 maps one whole session after the other. In turns, the host's
 // changing speed moves both alike: on session 44's host one run's repetitions gave ratios within
-// 0.05 of each other, where whole sessions gave 0.8 to 1.9. (K = 8, 32 and 200 gave the same
+// 0.01-0.07 of each other, where whole sessions gave 0.8 to 1.9. (K = 8, 32 and 200 gave the same
 // ratios.)
 //
 // --cold-mb MB: between two scans (not timed), MB of other memory is written and read, as the
