@@ -9,7 +9,7 @@
 // the room: up to 4.5 m). Each scene's frames (the camera moving 2 cm and turning 0.5 deg between
 // them) go, in order, into a fresh 0.05 m octree per method:
 //   ours: the node's path: PointCloud2 (organized, NaN where no depth) -> checked, converted to
-//         the map frame (toCoreCloud) -> Mapper::insertPoints (full inverse model, one ray per
+//         the map frame (toCoreCloud) -> Mapper::insert (full inverse model, one ray per
 //         end voxel, shared free space walked about once: cloud_shared_free_run 16);
 //         "whole rays": the same with every ray walked whole (cloud_shared_free_run 0); "per
 //         point": that with one ray per point too (the path before issue 22);
@@ -251,7 +251,7 @@ int main(int argc, char** argv) {
       const osm::ros_adapter::ScanRejection rejected = osm::ros_adapter::toCoreCloud(*f.msg, f.optical_in_map, &cloud);
       if (rejected.rejected()) std::fprintf(stderr, "rejected: %s\n", rejected.message.c_str());
       const auto t1 = std::chrono::steady_clock::now();
-      mapper.insertPoints(cloud.origin, cloud.points);
+      mapper.insert(cloud);
       conversion_ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
       });
       ours.insert(ours.end(), run.begin(), run.end());
@@ -299,14 +299,14 @@ int main(int argc, char** argv) {
     osm::Mapper whole(whole_options);
     const std::vector<double> walked = ours_only ? std::vector<double>{0.0} : timeFrames(frames, [&](const Frame& f) {
       osm::ros_adapter::toCoreCloud(*f.msg, f.optical_in_map, &cloud);
-      whole.insertPoints(cloud.origin, cloud.points);
+      whole.insert(cloud);
     });
     osm::MapperOptions per_point_options = whole_options;
     per_point_options.insert.cloud_one_ray_per_voxel = false;
     osm::Mapper per_point(per_point_options);
     const std::vector<double> each = ours_only ? std::vector<double>{0.0} : timeFrames(frames, [&](const Frame& f) {
       osm::ros_adapter::toCoreCloud(*f.msg, f.optical_in_map, &cloud);
-      per_point.insertPoints(cloud.origin, cloud.points);
+      per_point.insert(cloud);
     });
     Agreement vs_per_point, vs_whole;
     if (!ours_only) {

@@ -93,7 +93,9 @@ TEST_F(CloudPipelineTest, GivesTheMapOfInsertingOneByOneInTheOrderSubmitted) {
                      }
                      DeferredCloud deferred;
                      deferred.origin = cloud.origin;
-                     deferred.points = [&cloud](std::vector<Eigen::Vector3f>* points) { *points = cloud.points; };
+                     deferred.points = [&cloud](std::vector<Eigen::Vector3f>* points, ReadingCounts*) {
+                       *points = cloud.points;
+                     };
                      pipeline.submit(std::move(deferred), done(1));
                    });
       pipeline.wait();
@@ -124,7 +126,9 @@ TEST_F(CloudPipelineTest, ARefusedCloudLosesNothingElseAndTheDestructorAppliesTh
     outside.origin = Eigen::Vector3d(1e7, 0.0, 0.0);  // beyond the octree's keys
     DeferredCloud unmade;
     unmade.origin = (*clouds_)[0].origin;
-    unmade.points = [](std::vector<Eigen::Vector3f>*) { throw std::runtime_error("conversion failed"); };
+    unmade.points = [](std::vector<Eigen::Vector3f>*, ReadingCounts*) {
+      throw std::runtime_error("conversion failed");
+    };
     pipeline.submit((*clouds_)[0], record);
     pipeline.submit(outside, record);
     pipeline.submit(std::move(unmade), record);

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
 
 #include <atomic>
@@ -398,6 +399,32 @@ TEST(CloudPreparation, GivesInsertPointsTreeAndIsRefusedAfterAReset) {
   EXPECT_FALSE(prepared.insertPrepared(std::move(stale), preparer->mapGeneration(), &result));
   EXPECT_EQ(prepared.tree().getNumLeafNodes(), 0u);
   EXPECT_EQ(prepared.stats().clouds_inserted, 0u);
+}
+
+// The points a conversion left out (SensorCloud::left_out) are counted with the cloud's readings
+// whichever way it goes in: directly, prepared, through the session, or inserted anew after a reset.
+TEST(CloudPreparation, PointsTheConversionLeftOutAreCountedWithTheCloud) {
+  SensorCloud cloud = wallCloud();
+  cloud.points.emplace_back(std::nanf(""), 0.0f, 0.0f);  // one the core counts itself
+  cloud.left_out[ReadingKind::kNaN] = 7;
+  cloud.left_out[ReadingKind::kInfinite] = 2;
+  const std::uint64_t hits = cloud.points.size() - 1;
+  const auto expectCounted = [&](const ReadingCounts& r, const char* how) {
+    EXPECT_EQ(r[ReadingKind::kNaN], 8u) << how;
+    EXPECT_EQ(r[ReadingKind::kInfinite], 2u) << how;
+    EXPECT_EQ(r[ReadingKind::kHit], hits) << how;
+  };
+  Mapper direct;
+  expectCounted(direct.insert(cloud).readings, "Mapper::insert");
+  expectCounted(direct.stats().cloud_points, "the mapper's totals");
+  Mapper prepared;
+  std::unique_ptr<CloudPreparer> preparer = prepared.cloudPreparer();
+  InsertResult result;
+  ASSERT_TRUE(prepared.insertPrepared(preparer->prepare(cloud), preparer->mapGeneration(), &result));
+  expectCounted(result.readings, "prepared");
+  MappingSession session(MapperOptions{}, SessionOptions{});
+  expectCounted(session.insert(cloud).readings, "the session");
+  expectCounted(session.withMapper([](const Mapper& m) { return m.stats().cloud_points; }), "the session's totals");
 }
 
 TEST_F(MappingSessionTest, CloudsPreparedOutsideTheLockAfterAResetStillGoIn) {

@@ -1,5 +1,5 @@
 // PointCloud2 layouts a sender can get wrong are refused before any byte is read (issue 19), and
-// a well-formed cloud's points come out in the map frame, NaNs kept for the core to count.
+// a well-formed cloud's points come out in the map frame, the non-finite ones left out and counted.
 #include "ros/point_cloud_conversion.h"
 
 #include <gtest/gtest.h>
@@ -9,6 +9,8 @@
 #include <cstring>
 #include <random>
 
+using octo_slice_mapper::ReadingCounts;
+using octo_slice_mapper::ReadingKind;
 using namespace octo_slice_mapper::ros_adapter;
 
 namespace {
@@ -36,12 +38,44 @@ TEST(PointCloudConversion, AWellFormedCloudPassesAndItsPointsReachTheMapFrame) {
   Eigen::Isometry3f to_map = Eigen::Isometry3f::Identity();
   to_map.translation() = Eigen::Vector3f(10, 0, 0);
   std::vector<Eigen::Vector3f> points;
-  cloudPointsInMap(cloud, to_map, &points);
-  ASSERT_EQ(points.size(), 4u);
+  ReadingCounts left_out;
+  cloudPointsInMap(cloud, to_map, &points, &left_out);
+  ASSERT_EQ(points.size(), 2u);
   EXPECT_TRUE(points[0].isApprox(Eigen::Vector3f(11, 2, 3)));
-  EXPECT_FALSE(points[1].allFinite());
-  EXPECT_TRUE(points[2].isApprox(Eigen::Vector3f(14, 5, 6)));
-  EXPECT_FALSE(points[3].allFinite());
+  EXPECT_TRUE(points[1].isApprox(Eigen::Vector3f(14, 5, 6)));
+  EXPECT_EQ(left_out[ReadingKind::kNaN], 1u);
+  EXPECT_EQ(left_out[ReadingKind::kInfinite], 1u);
+  EXPECT_EQ(left_out.skipped(), 2u);
+}
+
+// An organized frame's borders are NaN, -inf or +inf, in runs and alone: whatever their mix, the
+// finite points come out in order and every other point is counted once, NaN before inf.
+TEST(PointCloudConversion, NonFinitePointsAreLeftOutAndCountedPerReason) {
+  const int width = 64, height = 5;
+  sensor_msgs::PointCloud2 cloud = xyzCloud(width, height);
+  std::mt19937 rng(5);
+  std::vector<Eigen::Vector3f> finite;
+  std::uint64_t nan = 0, inf = 0;
+  sensor_msgs::PointCloud2Iterator<float> x(cloud, "x"), y(cloud, "y"), z(cloud, "z");
+  for (int k = 0; k < width * height; ++k, ++x, ++y, ++z) {
+    Eigen::Vector3f v(0.01f * k, -0.02f * k, 1.0f);
+    const int kind = k < 40 ? 1 : int(rng() % 5);  // a run of NaN first, then mixed
+    if (kind == 1) v.x() = NAN, ++nan;
+    if (kind == 2) v.z() = -INFINITY, ++inf;
+    if (kind == 3) v.y() = INFINITY, v.z() = NAN, ++nan;  // NaN counts before inf
+    if (kind == 0 || kind == 4) finite.push_back(v);
+    *x = v.x(), *y = v.y(), *z = v.z();
+  }
+  std::vector<Eigen::Vector3f> points;
+  ReadingCounts left_out;
+  cloudPointsInMap(cloud, Eigen::Isometry3f::Identity(), &points, &left_out);
+  ASSERT_EQ(points.size(), finite.size());
+  for (std::size_t k = 0; k < points.size(); ++k) EXPECT_EQ(points[k], finite[k]) << k;
+  EXPECT_EQ(left_out[ReadingKind::kNaN], nan);
+  EXPECT_EQ(left_out[ReadingKind::kInfinite], inf);
+  EXPECT_EQ(left_out.skipped(), nan + inf);
+  EXPECT_GT(nan, 40u);
+  EXPECT_GT(inf, 20u);
 }
 
 // The SIMD transform sums as `rotation * v + translation` does, so every point is that one to the
@@ -65,19 +99,19 @@ TEST(PointCloudConversion, PointsAreTheRotationAndTranslationToTheBit) {
   const Eigen::Matrix3f rotation = to_map.linear();
   const Eigen::Vector3f translation = to_map.translation();
   std::vector<Eigen::Vector3f> points;
-  cloudPointsInMap(cloud, to_map, &points);
-  ASSERT_EQ(points.size(), sensor.size());
+  ReadingCounts left_out;
+  cloudPointsInMap(cloud, to_map, &points, &left_out);
   std::size_t compared = 0;
-  for (std::size_t k = 0; k < points.size(); ++k) {
-    if (!sensor[k].allFinite()) {
-      EXPECT_FALSE(points[k].allFinite()) << k;
-      continue;
-    }
-    const Eigen::Vector3f expected = rotation * sensor[k] + translation;
-    ASSERT_EQ(std::memcmp(points[k].data(), expected.data(), sizeof expected), 0)
-        << k << ": " << points[k].transpose() << " against " << expected.transpose();
+  for (const Eigen::Vector3f& v : sensor) {
+    if (!v.allFinite()) continue;
+    ASSERT_LT(compared, points.size());
+    const Eigen::Vector3f expected = rotation * v + translation;
+    ASSERT_EQ(std::memcmp(points[compared].data(), expected.data(), sizeof expected), 0)
+        << compared << ": " << points[compared].transpose() << " against " << expected.transpose();
     ++compared;
   }
+  EXPECT_EQ(compared, points.size());
+  EXPECT_EQ(left_out[ReadingKind::kNaN], sensor.size() - compared);
   EXPECT_GT(compared, 5000u);
 }
 
@@ -126,7 +160,8 @@ TEST(PointCloudConversion, Float64CoordinatesAreRead) {
   *x = 1.5, *y = -2.0, *z = 0.25;
   ASSERT_FALSE(checkCloudLayout(cloud).rejected());
   std::vector<Eigen::Vector3f> points;
-  cloudPointsInMap(cloud, Eigen::Isometry3f::Identity(), &points);
+  ReadingCounts left_out;
+  cloudPointsInMap(cloud, Eigen::Isometry3f::Identity(), &points, &left_out);
   ASSERT_EQ(points.size(), 1u);
   EXPECT_TRUE(points[0].isApprox(Eigen::Vector3f(1.5f, -2.0f, 0.25f)));
 }

@@ -23,11 +23,6 @@ struct EndVoxels {
   ReadingCounts non_finite;              // nan / inf
 };
 
-// How a non-finite point is counted: NaN if any coordinate is, else infinite.
-inline ReadingKind nonFiniteKind(const Eigen::Vector3f& p) {
-  return p.array().isNaN().any() ? ReadingKind::kNaN : ReadingKind::kInfinite;
-}
-
 // What keyCoordinates gives a coordinate that has no key: NaN, infinite or outside the octree.
 constexpr std::int32_t kNoKeyCoordinate = -1;
 

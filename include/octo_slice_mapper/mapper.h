@@ -88,6 +88,8 @@ class Mapper {
 
   InsertResult insert(const Scan& scan);
   InsertResult insertPoints(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points);
+  // A converted cloud: its points, and the ones its conversion left out counted with them.
+  InsertResult insert(const SensorCloud& cloud);
   // insertPoints in two steps, the first away from the Mapper: a preparer for the map as it is
   // now, and its result applied. insertPrepared refuses (false, nothing changed) a result made
   // before a reset, load or reconfigure (another geometry or model): insert that cloud anew.

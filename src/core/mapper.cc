@@ -75,11 +75,19 @@ InsertResult Mapper::insertPoints(const Eigen::Vector3d& origin, const std::vect
   return record(inserter_->insertPoints(origin, points, inserter_->model().halfAngleFor(0.0)), /*cloud=*/true);
 }
 
+InsertResult Mapper::insert(const SensorCloud& cloud) {
+  InsertResult result = inserter_->insertPoints(cloud.origin, cloud.points, inserter_->model().halfAngleFor(0.0));
+  result.readings += cloud.left_out;
+  return record(std::move(result), /*cloud=*/true);
+}
+
 CloudPreparer::CloudPreparer(double resolution, const InsertOptions& options, std::uint64_t map_generation)
     : geometry_(resolution), inserter_(&geometry_, options), map_generation_(map_generation) {}
 
 PreparedCloud CloudPreparer::prepare(const SensorCloud& cloud) {
-  return inserter_.prepareCloud(cloud.origin, cloud.points, inserter_.model().halfAngleFor(0.0));
+  PreparedCloud prepared = inserter_.prepareCloud(cloud.origin, cloud.points, inserter_.model().halfAngleFor(0.0));
+  prepared.result.readings += cloud.left_out;
+  return prepared;
 }
 
 std::unique_ptr<CloudPreparer> Mapper::cloudPreparer() const {

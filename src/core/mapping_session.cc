@@ -74,7 +74,7 @@ InsertResult MappingSession::insertPrepared(PreparedCloud prepared, std::uint64_
   InsertResult result;
   if (mapper_.insertPrepared(std::move(prepared), map_generation, &result)) return recordInsert(result);
   // Reset, loaded or reconfigured while it was prepared: inserted the ordinary way.
-  return recordInsert(mapper_.insertPoints(cloud.origin, cloud.points));
+  return recordInsert(mapper_.insert(cloud));
 }
 
 SaveOutcome MappingSession::save(const std::string& prefix, bool with_global_pass, const ProgressFn& progress) {

@@ -81,49 +81,57 @@ ScanRejection checkCloudLayout(const sensor_msgs::PointCloud2& msg) {
 
 namespace {
 
-// The points of rows [0, msg.height) read with `read(point_bytes)`, in the map frame.
+// The finite points of rows [0, msg.height) read with `read(point_bytes)`, in the map frame, in
+// order from `out` on; the others counted. Returns the end of the points written.
 template <typename Read>
-void transformPoints(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry3f& to_map, Read read,
-                     Eigen::Vector3f* out) {
+Eigen::Vector3f* transformPoints(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry3f& to_map, Read read,
+                                 Eigen::Vector3f* out, ReadingCounts* left_out) {
   // The rotation and translation apart: Eigen's Isometry3f product took a third more time (and
   // rounds some coordinates differently in the last bit).
   const Eigen::Matrix3f rotation = to_map.linear();
   const Eigen::Vector3f translation = to_map.translation();
-  const Eigen::Vector3f nan = Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN());
   for (std::uint32_t row = 0; row < msg.height; ++row) {
     const std::uint8_t* p = msg.data.data() + std::size_t(row) * msg.row_step;
     for (std::uint32_t col = 0; col < msg.width; ++col, p += msg.point_step) {
       const Eigen::Vector3f v = read(p);
-      // A non-finite point stays so (the transform would mix NaN into the other coordinates anyway).
-      *out++ = v.allFinite() ? Eigen::Vector3f(rotation * v + translation) : nan;
+      // An organized frame's NaN pixels come in runs (its borders, what the camera can't see):
+      // the branch is predicted, and the grouping never sees them.
+      if (v.allFinite()) {
+        *out++ = rotation * v + translation;
+      } else {
+        (*left_out)[nonFiniteKind(v)]++;
+      }
     }
   }
+  return out;
 }
 
 }  // namespace
 
 void cloudPointsInMap(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry3f& to_map,
-                      std::vector<Eigen::Vector3f>* points) {
+                      std::vector<Eigen::Vector3f>* points, ReadingCounts* left_out) {
   const sensor_msgs::PointField& fx = *fieldNamed(msg, "x");
   const sensor_msgs::PointField& fy = *fieldNamed(msg, "y");
   const sensor_msgs::PointField& fz = *fieldNamed(msg, "z");
   points->resize(std::size_t(msg.width) * msg.height);
   const bool all_float = fx.datatype == sensor_msgs::PointField::FLOAT32 &&
                          fy.datatype == sensor_msgs::PointField::FLOAT32 && fz.datatype == sensor_msgs::PointField::FLOAT32;
+  Eigen::Vector3f* end = nullptr;
   if (all_float) {  // what cameras send: no per-coordinate type test (a third of the conversion)
     const std::uint32_t ox = fx.offset, oy = fy.offset, oz = fz.offset;
-    transformPoints(msg, to_map, [ox, oy, oz](const std::uint8_t* p) {
+    end = transformPoints(msg, to_map, [ox, oy, oz](const std::uint8_t* p) {
       float x, y, z;
       std::memcpy(&x, p + ox, sizeof x);
       std::memcpy(&y, p + oy, sizeof y);
       std::memcpy(&z, p + oz, sizeof z);
       return Eigen::Vector3f(x, y, z);
-    }, points->data());
+    }, points->data(), left_out);
   } else {
-    transformPoints(msg, to_map, [&](const std::uint8_t* p) {
+    end = transformPoints(msg, to_map, [&](const std::uint8_t* p) {
       return Eigen::Vector3f(coordinate(p, fx), coordinate(p, fy), coordinate(p, fz));
-    }, points->data());
+    }, points->data(), left_out);
   }
+  points->resize(static_cast<std::size_t>(end - points->data()));
 }
 
 ScanRejection toCoreCloud(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry3d& sensor_pose, SensorCloud* out) {
@@ -132,7 +140,8 @@ ScanRejection toCoreCloud(const sensor_msgs::PointCloud2& msg, const Eigen::Isom
   const ScanRejection rejection = checkCloudLayout(msg);
   if (rejection.rejected()) return rejection;
   out->origin = sensor_pose.translation();
-  cloudPointsInMap(msg, sensor_pose.cast<float>(), &out->points);
+  out->left_out = ReadingCounts{};
+  cloudPointsInMap(msg, sensor_pose.cast<float>(), &out->points, &out->left_out);
   return rejection;
 }
 
@@ -141,8 +150,9 @@ ScanRejection toDeferredCloud(const sensor_msgs::PointCloud2::ConstPtr& msg, con
   const ScanRejection rejection = checkCloudLayout(*msg);
   if (rejection.rejected()) return rejection;
   out->origin = sensor_pose.translation();
-  out->points = [msg, to_map = Eigen::Isometry3f(sensor_pose.cast<float>())](std::vector<Eigen::Vector3f>* points) {
-    cloudPointsInMap(*msg, to_map, points);
+  out->points = [msg, to_map = Eigen::Isometry3f(sensor_pose.cast<float>())](std::vector<Eigen::Vector3f>* points,
+                                                                              ReadingCounts* left_out) {
+    cloudPointsInMap(*msg, to_map, points, left_out);
   };
   return rejection;
 }

@@ -22,11 +22,11 @@ constexpr std::size_t kMaxPointsPerCloud = 5000000;
 // cloud_big_endian, cloud_empty, cloud_too_large).
 ScanRejection checkCloudLayout(const sensor_msgs::PointCloud2& msg);
 
-// The cloud's points through `to_map` (the sensor frame's pose in the map frame), in the
-// message's order; points with a non-finite coordinate stay non-finite, for the core to count.
-// The layout must have passed checkCloudLayout.
+// The cloud's finite points through `to_map` (the sensor frame's pose in the map frame), in the
+// message's order; points with a non-finite coordinate are left out and counted into `left_out`
+// (kNaN if any coordinate is NaN, else kInfinite). The layout must have passed checkCloudLayout.
 void cloudPointsInMap(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry3f& to_map,
-                      std::vector<Eigen::Vector3f>* points);
+                      std::vector<Eigen::Vector3f>* points, ReadingCounts* left_out);
 
 // Both steps: the layout checked, then the points through `sensor_pose` with the sensor's origin.
 ScanRejection toCoreCloud(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry3d& sensor_pose, SensorCloud* out);

@@ -35,7 +35,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   Eigen::Isometry3f to_map = Eigen::Isometry3f::Identity();
   to_map.translation() = Eigen::Vector3f(pose[0], pose[1], pose[2]);
   std::vector<Eigen::Vector3f> points;
-  osm::ros_adapter::cloudPointsInMap(msg, to_map, &points);
+  osm::ReadingCounts left_out;
+  osm::ros_adapter::cloudPointsInMap(msg, to_map, &points, &left_out);
+  // Every point either converted (finite) or counted.
+  if (points.size() + left_out.skipped() != std::uint64_t(msg.width) * msg.height) __builtin_trap();
   octomap::OcTree tree(0.1);
   osm::InsertOptions insert;
   insert.max_range = 20.0;  // bounded work per input
