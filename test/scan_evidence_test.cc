@@ -8,6 +8,8 @@
 #include <random>
 #include <tuple>
 
+#include "octo_slice_mapper/octree_batch_update.h"
+
 using namespace octo_slice_mapper;
 
 namespace {
@@ -159,4 +161,49 @@ TEST(ScanEvidence, IndicesNameTheBoxsKeysAndStepByTheStrides) {
   ASSERT_EQ(updates.size(), 1u);
   EXPECT_EQ(updates[0].first, tupleOf(key));
   EXPECT_EQ(updates[0].second, 0.7f);
+}
+
+// orderInTree() makes drain() hand on what a drain followed by sortInTreeOrder gives, value for
+// value and in the same order: windows on either side of the tree's centre key (where every bit
+// of the tree order differs) and across it, thin and thick, not on block boundaries, with sums
+// that come back to zero (listed twice) and voxels given evidence many times; the same window
+// reused scan after scan (its block masks must be left empty).
+TEST_P(ScanEvidenceBothRules, OrderInTreeGivesWhatASortOfTheDrainGives) {
+  std::mt19937 rng(11);
+  ScanEvidence ordered(GetParam()), plain(GetParam());
+  std::size_t compared = 0;
+  for (int scan = 0; scan < 60; ++scan) {
+    std::uniform_int_distribution<int> corner(32768 - 70, 32768 + 20), size(0, 60), thin(0, 3);
+    octomap::OcTreeKey lo(corner(rng), corner(rng), corner(rng));
+    octomap::OcTreeKey hi(lo[0] + size(rng), lo[1] + size(rng), lo[2] + (scan % 3 == 0 ? thin(rng) : size(rng)));
+    const KeyBox box = boxOf(lo, hi);
+    const std::size_t adds = 1 + rng() % 4000;
+    ASSERT_TRUE(ordered.begin(box, adds));
+    ASSERT_TRUE(plain.begin(box, adds));
+    std::uniform_int_distribution<int> dx(0, hi[0] - lo[0]), dy(0, hi[1] - lo[1]), dz(0, hi[2] - lo[2]);
+    std::uniform_real_distribution<float> value(-2.0f, 2.0f);
+    for (std::size_t i = 0; i < adds; ++i) {
+      const octomap::OcTreeKey key(lo[0] + dx(rng), lo[1] + dy(rng), lo[2] + dz(rng));
+      float v = value(rng);
+      if (v == 0.0f) continue;
+      ordered.add(key, v);
+      plain.add(key, v);
+      if (i % 50 == 0) {  // the same again, negated: a sum back at zero
+        ordered.add(key, -v);
+        plain.add(key, -v);
+      }
+    }
+    std::vector<KeyUpdate> expected, got;
+    plain.drain([&](const octomap::OcTreeKey& k, float v) { expected.push_back({k, v}); });
+    sortInTreeOrder(&expected);
+    ordered.orderInTree();
+    ordered.drain([&](const octomap::OcTreeKey& k, float v) { got.push_back({k, v}); });
+    ASSERT_EQ(got.size(), expected.size()) << "scan " << scan;
+    for (std::size_t i = 0; i < got.size(); ++i) {
+      ASSERT_EQ(tupleOf(got[i].key), tupleOf(expected[i].key)) << "scan " << scan << ", update " << i;
+      ASSERT_EQ(got[i].log_odds, expected[i].log_odds) << "scan " << scan << ", update " << i;
+    }
+    compared += got.size();
+  }
+  EXPECT_GT(compared, 50000u);
 }

@@ -8,6 +8,7 @@
 #include <cstring>
 #include <memory>
 #include <type_traits>
+#include <vector>
 
 #include "octo_slice_mapper/key_box.h"
 
@@ -97,6 +98,12 @@ class ScanEvidence {
   void drain(Fn&& fn) {
     withCombining([&](auto rule) { drainAs<decltype(rule)::value>(fn); });
   }
+  // Makes the next drain() hand on the voxels in the octree's order (OctoMap's child indices from
+  // the root down, as sortInTreeOrder sorts: what applying a batch wants) instead of the order in
+  // which they first got evidence. A bucket sort: each voxel is marked in a 512-bit mask of its
+  // 8 x 8 x 8 block (blocks aligned in key space, so the order within one is its low key bits
+  // interleaved), the few blocks are sorted by their own tree order, and the masks read in it.
+  void orderInTree();
   // Voxels listed since begin(): at least as many as drain() will hand on.
   std::size_t listed() const { return count_; }
   // The window's size is virtual: of it, only pages scans reached are resident.
@@ -153,10 +160,16 @@ class ScanEvidence {
   std::size_t capacity_ = 0;
   unsigned shift_y_ = 0, shift_z_ = 0;
   std::uint32_t mask_x_ = 0, mask_y_ = 0;
+  std::size_t nz_ = 0;
   std::uint64_t offset_ = 0;
   octomap::OcTreeKey lo_;
   std::unique_ptr<std::uint32_t[]> touched_;  // indices; the first count_ are this scan's voxels
   std::size_t touched_capacity_ = 0, count_ = 0;
+  // orderInTree's scratch: a block's mask (8 words, all zero between calls) and whether it is
+  // listed, per block of the window; the listed blocks with their tree order.
+  std::vector<std::uint64_t> block_masks_;
+  std::vector<std::uint8_t> block_listed_;
+  std::vector<std::uint64_t> blocks_in_order_;
 };
 
 }  // namespace octo_slice_mapper

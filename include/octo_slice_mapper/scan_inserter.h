@@ -151,10 +151,11 @@ class ScanInserter {
                      bool shortcuts);
   void traceEvidence(const Eigen::Vector3d& origin, const std::vector<Beam>& beams, double half_angle,
                      const std::function<void(const octomap::OcTreeKey&, float)>& fn, bool shortcuts);
-  // Per-voxel log-odds updates of beams before they are applied, in traversal order.
+  // Per-voxel log-odds updates of beams before they are applied, in traversal order, or with
+  // `in_tree_order` in the octree's (sortInTreeOrder's).
   // `shared_free_run` > 0: a cloud's rays stop in free space earlier rays gave (cloud_shared_free_run).
   std::vector<KeyUpdate> computeUpdates(const Eigen::Vector3d& origin, const std::vector<Beam>& beams,
-                                        double half_angle, int shared_free_run = 0);
+                                        double half_angle, int shared_free_run = 0, bool in_tree_order = false);
 
   // `in_tree_order`: the updates are sorted already (sortInTreeOrder).
   InsertResult apply(std::vector<KeyUpdate> updates, InsertResult result, bool in_tree_order = false);

@@ -45,8 +45,88 @@ bool ScanEvidence::begin(const KeyBox& box, std::size_t max_adds) {
   mask_x_ = (1u << bx) - 1;
   mask_y_ = (1u << by) - 1;
   lo_ = box.min;
+  nz_ = nz;
   offset_ = (std::uint64_t(box.min[2]) << shift_z_) + (std::uint64_t(box.min[1]) << shift_y_) + box.min[0];
   return true;
+}
+
+namespace {
+
+// Bit i of a 13-bit value at bit 3i.
+std::uint64_t spread3(std::uint64_t v) {
+  v = (v | (v << 16)) & 0x0000FF0000FFULL;
+  v = (v | (v << 8)) & 0x00F00F00F00FULL;
+  v = (v | (v << 4)) & 0x0C30C30C30C3ULL;
+  v = (v | (v << 2)) & 0x249249249249ULL;
+  return v;
+}
+
+// Within a block: x | y << 3 | z << 6 (each 0-7) -> its place in the tree order (x, y, z bits
+// interleaved, x lowest), and back.
+struct BlockOrder {
+  std::uint16_t place[512], voxel[512];
+  BlockOrder() {
+    for (unsigned v = 0; v < 512; ++v) {
+      const unsigned p = static_cast<unsigned>(spread3(v & 7) | spread3((v >> 3) & 7) << 1 | spread3(v >> 6) << 2);
+      place[v] = static_cast<std::uint16_t>(p);
+      voxel[p] = static_cast<std::uint16_t>(v);
+    }
+  }
+};
+const BlockOrder kBlockOrder;
+
+}  // namespace
+
+void ScanEvidence::orderInTree() {
+  if (count_ == 0) return;
+  // A key's tree order is its block's (the key >> 3, interleaved) followed by its low bits'.
+  // The members in locals: the byte and word stores below could alias them, and were reloaded.
+  const unsigned lx = lo_[0], ly = lo_[1], lz = lo_[2], shift_y = shift_y_, shift_z = shift_z_;
+  const std::uint32_t mask_x = mask_x_, mask_y = mask_y_;
+  const unsigned bx0 = lx >> 3, by0 = ly >> 3, bz0 = lz >> 3;
+  const std::size_t nbx = ((lx + mask_x) >> 3) - bx0 + 1, nby = ((ly + mask_y) >> 3) - by0 + 1,
+                    nbz = ((lz + nz_ - 1) >> 3) - bz0 + 1, layer = nbx * nby;
+  if (block_listed_.size() < layer * nbz) {  // zero-filled; every use leaves them zero again
+    block_masks_.resize(8 * layer * nbz);
+    block_listed_.resize(layer * nbz);
+  }
+  std::uint64_t* const masks = block_masks_.data();
+  std::uint8_t* const listed = block_listed_.data();
+  std::uint32_t* const touched = touched_.get();
+  blocks_in_order_.clear();
+  for (std::size_t i = 0, n = count_; i < n; ++i) {
+    const std::uint32_t index = touched[i];
+    const unsigned x = (index & mask_x) + lx, y = ((index >> shift_y) & mask_y) + ly, z = (index >> shift_z) + lz;
+    const std::size_t block = ((z >> 3) - bz0) * layer + ((y >> 3) - by0) * nbx + ((x >> 3) - bx0);
+    if (!listed[block]) {
+      listed[block] = 1;
+      // Its tree order above the block's number: one sort of plain integers.
+      const std::uint64_t order = spread3(x >> 3) | spread3(y >> 3) << 1 | spread3(z >> 3) << 2;
+      blocks_in_order_.push_back(order << 24 | block);
+    }
+    const unsigned place = kBlockOrder.place[(x & 7) | (y & 7) << 3 | (z & 7) << 6];
+    masks[8 * block + (place >> 6)] |= std::uint64_t{1} << (place & 63);
+  }
+  std::sort(blocks_in_order_.begin(), blocks_in_order_.end());
+  const std::uint64_t offset = offset_;
+  std::size_t n = 0;
+  for (const std::uint64_t entry : blocks_in_order_) {
+    const std::size_t block = entry & 0xFFFFFF;
+    const std::uint64_t x0 = (block % nbx + bx0) << 3, y0 = (block / nbx % nby + by0) << 3,
+                        z0 = (block / layer + bz0) << 3;
+    const std::uint64_t base = (z0 << shift_z) + (y0 << shift_y) + x0 - offset;  // indexOf(x0, y0, z0)
+    std::uint64_t* const mask = masks + 8 * block;
+    for (unsigned w = 0; w < 8; ++w) {
+      for (std::uint64_t bits = mask[w]; bits != 0; bits &= bits - 1) {
+        const unsigned v = kBlockOrder.voxel[64 * w + static_cast<unsigned>(__builtin_ctzll(bits))];
+        touched[n++] = static_cast<std::uint32_t>(base + (std::uint64_t(v >> 6) << shift_z) +
+                                                  (std::uint64_t((v >> 3) & 7) << shift_y) + (v & 7));
+      }
+      mask[w] = 0;
+    }
+    listed[block] = 0;
+  }
+  count_ = n;  // each voxel once (a sum listed again after coming back to zero, too)
 }
 
 }  // namespace octo_slice_mapper

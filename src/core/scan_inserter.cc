@@ -86,10 +86,9 @@ PreparedCloud ScanInserter::prepareCloud(const Eigen::Vector3d& origin, const st
   // Summed evidence counts every ray: none may stop early.
   const int shared_free_run =
       options_.cloud_combining == EvidenceCombining::kOccupiedWins ? std::max(0, options_.cloud_shared_free_run) : 0;
-  prepared.updates = computeUpdates(origin, beams, half_angle, shared_free_run);
-  // Sorted here, not when applied: a pipeline prepares frames in parallel but applies them one
-  // at a time, under the map's lock (the sort was a quarter of a room frame's applying).
-  sortInTreeOrder(&prepared.updates);
+  // In tree order here, not when applied: a pipeline prepares frames in parallel but applies them
+  // one at a time, under the map's lock (the sort was a quarter of a room frame's applying).
+  prepared.updates = computeUpdates(origin, beams, half_angle, shared_free_run, /*in_tree_order=*/true);
   prepared.result.beams_outside_octree = beams_outside_;
   evidence_.setCombining(options_.combining);
   return prepared;
@@ -479,13 +478,19 @@ void ScanInserter::handOnOncePerVoxel(std::vector<KeyUpdate>* evidence, Sink&& s
 }
 
 std::vector<KeyUpdate> ScanInserter::computeUpdates(const Eigen::Vector3d& origin, const std::vector<Beam>& beams,
-                                                    double half_angle, int shared_free_run) {
+                                                    double half_angle, int shared_free_run, bool in_tree_order) {
   octomap::OcTreeKey origin_key;
   if (!coordToKeySafe(*tree_, origin.x(), origin.y(), origin.z(), &origin_key)) return {};
   const KeyBox box = prepareBeams(origin, origin_key, beams, std::tan(half_angle));
-  if (!evidence_.begin(box, max_visits_)) return sparseUpdates(origin, origin_key, beams, half_angle);
+  if (!evidence_.begin(box, max_visits_)) {
+    std::vector<KeyUpdate> updates = sparseUpdates(origin, origin_key, beams, half_angle);
+    if (in_tree_order) sortInTreeOrder(&updates);
+    return updates;
+  }
   std::vector<KeyUpdate> updates;
   traceIntoWindow(origin, origin_key, beams, half_angle, shared_free_run);
+  // The window's bucket sort: a room frame's 36 000 updates in a fraction of a radix sort's time.
+  if (in_tree_order) evidence_.orderInTree();
   updates.reserve(evidence_.listed());
   evidence_.drain([&updates](const octomap::OcTreeKey& key, float update) { updates.push_back({key, update}); });
   return updates;
