@@ -65,18 +65,21 @@ TEST(EndVoxelGrouping, KeyCoordinateIsTheScaledCoordinateTruncatedWhereThereIsOn
 
 // The SIMD path against the one-coordinate reference, value for value, at every alignment and
 // with counts that leave a remainder.
+// Both ways this processor can run it: AVX2 (where it has it) and x86-64's baseline.
 TEST(EndVoxelGrouping, KeyCoordinatesAreKeyCoordinateOfForEveryValue) {
-  for (double resolution : {kResolution, 0.0625}) {
-    const double inverse = 1.0 / resolution;
-    const std::vector<float> values = edgeFloats(resolution);
-    for (std::size_t offset = 0; offset < 4; ++offset) {
-      for (std::size_t count : {values.size() - offset, std::size_t{1}, std::size_t{3}, std::size_t{5}}) {
-        std::vector<std::int32_t> keys(count, 12345);
-        osm::keyCoordinates(values.data() + offset, count, inverse, kCentre, keys.data());
-        for (std::size_t k = 0; k < count; ++k) {
-          ASSERT_EQ(keys[k], osm::keyCoordinateOf(values[offset + k], inverse, kCentre))
-              << "value " << values[offset + k] << " at " << k << " of " << count << ", offset " << offset
-              << ", resolution " << resolution;
+  for (const auto key_coordinates : {osm::keyCoordinates, osm::keyCoordinatesBaseline}) {
+    for (double resolution : {kResolution, 0.0625}) {
+      const double inverse = 1.0 / resolution;
+      const std::vector<float> values = edgeFloats(resolution);
+      for (std::size_t offset = 0; offset < 4; ++offset) {
+        for (std::size_t count : {values.size() - offset, std::size_t{1}, std::size_t{3}, std::size_t{5}}) {
+          std::vector<std::int32_t> keys(count, 12345);
+          key_coordinates(values.data() + offset, count, inverse, kCentre, keys.data());
+          for (std::size_t k = 0; k < count; ++k) {
+            ASSERT_EQ(keys[k], osm::keyCoordinateOf(values[offset + k], inverse, kCentre))
+                << "value " << values[offset + k] << " at " << k << " of " << count << ", offset " << offset
+                << ", resolution " << resolution;
+          }
         }
       }
     }
