@@ -63,9 +63,9 @@ TEST(EndVoxelGrouping, KeyCoordinateIsTheScaledCoordinateTruncatedWhereThereIsOn
   }
 }
 
-// The SIMD path against the one-coordinate reference, value for value, at every alignment and
-// with counts that leave a remainder.
-// Both ways this processor can run it: AVX2 (where it has it) and x86-64's baseline.
+// The SIMD paths against the one-coordinate reference, value for value, at every alignment and
+// with counts that leave a remainder: both ways this processor can run it (AVX2 where it has it,
+// and x86-64's baseline).
 TEST(EndVoxelGrouping, KeyCoordinatesAreKeyCoordinateOfForEveryValue) {
   for (const auto key_coordinates : {osm::keyCoordinates, osm::keyCoordinatesBaseline}) {
     for (double resolution : {kResolution, 0.0625}) {

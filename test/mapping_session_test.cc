@@ -425,6 +425,13 @@ TEST(CloudPreparation, PointsTheConversionLeftOutAreCountedWithTheCloud) {
   MappingSession session(MapperOptions{}, SessionOptions{});
   expectCounted(session.insert(cloud).readings, "the session");
   expectCounted(session.withMapper([](const Mapper& m) { return m.stats().cloud_points; }), "the session's totals");
+  // Prepared before a reset: the session inserts it anew, with its left-out points.
+  std::unique_ptr<CloudPreparer> stale;
+  session.refreshCloudPreparer(&stale);
+  PreparedCloud before_reset = stale->prepare(cloud);
+  session.reset();
+  expectCounted(session.insertPrepared(std::move(before_reset), stale->mapGeneration(), cloud).readings,
+                "inserted anew after a reset");
 }
 
 TEST_F(MappingSessionTest, CloudsPreparedOutsideTheLockAfterAResetStillGoIn) {
