@@ -3,6 +3,7 @@
 
 #include <octomap/OcTree.h>
 
+#include <cstdint>
 #include <vector>
 
 namespace octo_slice_mapper {
@@ -27,6 +28,20 @@ struct VoxelChange {
 // with one value) is updated itself, without making and freeing its voxels. Keys must be unique.
 // Reorders `updates`.
 void applyUpdatesInTreeOrder(octomap::OcTree* tree, std::vector<KeyUpdate>* updates);
+
+// A key's place in the octree's order: a Morton code whose 3-bit groups, from the most
+// significant, are OctoMap's child indices from the root down (x -> bit 0, y -> bit 1, z -> bit 2
+// of each group). Of keys below 2^k per axis it is below 2^(3k).
+inline std::uint64_t treeOrder(const octomap::OcTreeKey& k) {
+  auto spread = [](std::uint64_t v) {  // put bit i of a 16-bit value at bit 3i
+    v = (v | (v << 16)) & 0x0000FF0000FFULL;
+    v = (v | (v << 8)) & 0x00F00F00F00FULL;
+    v = (v | (v << 4)) & 0x0C30C30C30C3ULL;
+    v = (v | (v << 2)) & 0x249249249249ULL;
+    return v;
+  };
+  return spread(k[0]) | (spread(k[1]) << 1) | (spread(k[2]) << 2);
+}
 
 // Puts updates in the order applySortedUpdates needs (a pure function of the keys: a cloud's
 // updates are sorted while it is prepared, off the map's lock).

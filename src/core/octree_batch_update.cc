@@ -8,19 +8,6 @@
 namespace octo_slice_mapper {
 namespace {
 
-// Morton code whose 3-bit groups, from the most significant, are OctoMap's child indices from
-// the root down (x -> bit 0, y -> bit 1, z -> bit 2 of each group).
-std::uint64_t treeOrder(const octomap::OcTreeKey& k) {
-  auto spread = [](std::uint64_t v) {  // put bit i of a 16-bit value at bit 3i
-    v = (v | (v << 16)) & 0x0000FF0000FFULL;
-    v = (v | (v << 8)) & 0x00F00F00F00FULL;
-    v = (v | (v << 4)) & 0x0C30C30C30C3ULL;
-    v = (v | (v << 2)) & 0x249249249249ULL;
-    return v;
-  };
-  return spread(k[0]) | (spread(k[1]) << 1) | (spread(k[2]) << 2);
-}
-
 // LSD radix sort of n codes and their updates on the bytes that differ among them (`differing`),
 // passing between (codes, updates) and the scratch arrays: true if the result ends in the scratch.
 bool radixSort(std::uint64_t* codes, KeyUpdate* updates, std::uint64_t* codes_tmp, KeyUpdate* tmp, std::size_t n,
@@ -224,7 +211,7 @@ void applySortedUpdates(octomap::OcTree* tree, const std::vector<KeyUpdate>& upd
 
 void setValuesInTreeOrder(octomap::OcTree* tree, std::vector<KeyUpdate>* values) {
   sortInTreeOrder(values);
-  applySorted(tree, *values, true, nullptr);
+  setSortedValues(tree, *values);
 }
 
 void setSortedValues(octomap::OcTree* tree, const std::vector<KeyUpdate>& values) {

@@ -4,6 +4,8 @@
 #include <cstdlib>
 #include <new>
 
+#include "octo_slice_mapper/octree_batch_update.h"
+
 namespace octo_slice_mapper {
 
 ScanEvidence::~ScanEvidence() { std::free(cells_); }
@@ -52,22 +54,12 @@ bool ScanEvidence::begin(const KeyBox& box, std::size_t max_adds) {
 
 namespace {
 
-// Bit i of a 13-bit value at bit 3i.
-std::uint64_t spread3(std::uint64_t v) {
-  v = (v | (v << 16)) & 0x0000FF0000FFULL;
-  v = (v | (v << 8)) & 0x00F00F00F00FULL;
-  v = (v | (v << 4)) & 0x0C30C30C30C3ULL;
-  v = (v | (v << 2)) & 0x249249249249ULL;
-  return v;
-}
-
-// Within a block: x | y << 3 | z << 6 (each 0-7) -> its place in the tree order (x, y, z bits
-// interleaved, x lowest), and back.
+// Within a block: x | y << 3 | z << 6 (each 0-7) -> its place in the tree order, and back.
 struct BlockOrder {
   std::uint16_t place[512], voxel[512];
   BlockOrder() {
     for (unsigned v = 0; v < 512; ++v) {
-      const unsigned p = static_cast<unsigned>(spread3(v & 7) | spread3((v >> 3) & 7) << 1 | spread3(v >> 6) << 2);
+      const unsigned p = static_cast<unsigned>(treeOrder(octomap::OcTreeKey(v & 7, (v >> 3) & 7, v >> 6)));
       place[v] = static_cast<std::uint16_t>(p);
       voxel[p] = static_cast<std::uint16_t>(v);
     }
@@ -101,7 +93,7 @@ void ScanEvidence::orderInTree() {
     if (!listed[block]) {
       listed[block] = 1;
       // Its tree order above the block's number: one sort of plain integers.
-      const std::uint64_t order = spread3(x >> 3) | spread3(y >> 3) << 1 | spread3(z >> 3) << 2;
+      const std::uint64_t order = treeOrder(octomap::OcTreeKey(x >> 3, y >> 3, z >> 3));
       blocks_in_order_.push_back(order << 24 | block);
     }
     const unsigned place = kBlockOrder.place[(x & 7) | (y & 7) << 3 | (z & 7) << 6];
