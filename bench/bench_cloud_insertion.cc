@@ -18,10 +18,11 @@
 //   ours, pipelined: the same frames through the node's CloudPipeline (two workers: frames
 //         converted and prepared in parallel, applied in order; the layout checked on the
 //         submitting thread, as the node does); ms per frame = wall time of all frames / frames
-//         (throughput), in R rounds (default 5) into fresh sessions, each round beside a run of
-//         OctoMap's two methods into fresh trees (the order turned every round); the ratios
-//         "pipe/oct" and "pipe/discr" are the median of the rounds' ratios. The octree must equal
-//         ours leaf for leaf.
+//         (throughput) of a pass into a fresh session. In each of R rounds (default 5) OctoMap's
+//         two methods go frame by frame into fresh trees, every OctoMap frame timed beside a
+//         pass of its own (the order turned every pair): a pair's ratio is the frame's time over
+//         the pass's time per frame, and "pipe/oct" and "pipe/discr" are the median of all pairs'
+//         ratios (2 R N passes). The last pass's octree must equal ours leaf for leaf.
 // Prints per scene the median ms per frame and the ratios, how our map differs from the whole
 // rays' and from the per-point one (voxels by class, the navigation slice's cells by map_server's
 // class), and a JSON line (exit status 1 if a pipelined map differs). --ours-only: only ours, 20
@@ -198,7 +199,7 @@ std::vector<double> timeFrames(const std::vector<Frame>& frames, Insert&& insert
 
 int main(int argc, char** argv) {
   int frames_per_scene = 10;
-  int rounds = 5;  // of the pipelined path and OctoMap's methods, alternated
+  int rounds = 5;  // of OctoMap's methods frame by frame, each frame paired with a pipelined pass
   double resolution = 0.05;
   bool ours_only = false;  // for profiling
   std::string only_scene;  // "" = both
@@ -229,7 +230,7 @@ int main(int argc, char** argv) {
   }
   const int repeats = ours_only ? 20 : 1;
   std::printf("== depth frames, 640 x 480, %.2f m, %d frames per scene, %d rounds (median ms per frame; pipe/oct and "
-              "pipe/discr: median of the rounds' ratios)\n",
+              "pipe/discr: median of the ratios of OctoMap's frames to a pipelined pass timed beside each)\n",
               resolution, frames_per_scene, rounds);
   std::printf("  %-6s %8s %10s %10s %11s %10s %12s %12s %10s %10s %10s %10s\n", "scene", "points", "ours", "pipelined",
               "whole rays", "per point", "octomap", "discretized", "vs octomap", "vs discr.", "pipe/oct", "pipe/discr");
@@ -257,35 +258,52 @@ int main(int argc, char** argv) {
       ours.insert(ours.end(), run.begin(), run.end());
     }
     // Frames in parallel on two workers, applied in order: throughput, and the map (equal to ours
-    // when each frame went into a fresh map once, i.e. without --ours-only's repeats). In rounds
-    // with OctoMap's two methods, each into a fresh tree, the order turned every round: the
-    // pipelined ratios are taken per round, so that a change of the host's speed between rounds
-    // moves both sides of a ratio (session 43: OctoMap's median 140-220 ms in runs minutes apart).
+    // when each frame went into a fresh map once, i.e. without --ours-only's repeats). Paired with
+    // OctoMap's frames at a fine grain: each OctoMap frame (into that method's tree of the round)
+    // is timed right beside a whole pipelined pass over the frames (into a fresh session), the
+    // order turned every pair, and a ratio is that frame's time over the pass's time per frame.
+    // The host's speed changes within a second (session 46: OctoMap's frames of one round 140 and
+    // 220 ms apart), so a ratio of a 50 ms pass to 2 s of OctoMap's frames wandered by +-20 %.
     std::vector<double> pipelined, plain, discrete, pipe_vs_plain, pipe_vs_discrete;
+    std::vector<double> round_vs_plain, round_vs_discrete;  // per round: median of its pairs
     std::unique_ptr<octomap::OcTree> pipelined_tree;
     const auto origin = [](const Frame& f) {
       const Eigen::Vector3d o = f.optical_in_map.translation();
       return octomap::point3d(o.x(), o.y(), o.z());
     };
+    const auto timeOne = [](auto&& insert) {
+      const auto t0 = std::chrono::steady_clock::now();
+      insert();
+      return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    };
+    // One OctoMap frame and one pass beside it: the ratio of the frame's ms to the pass's per frame.
+    const auto pair = [&](int turn, auto&& octomap_frame, std::vector<double>* octomap_ms) {
+      double frame_ms = 0.0, pass_ms = 0.0;
+      if (turn % 2 == 1) frame_ms = timeOne(octomap_frame);
+      pass_ms = pipelinedMsPerFrame(frames, options, 2, &pipelined_tree);
+      if (turn % 2 == 0) frame_ms = timeOne(octomap_frame);
+      pipelined.push_back(pass_ms);
+      octomap_ms->push_back(frame_ms);
+      return frame_ms / pass_ms;
+    };
     for (int r = 0; r < rounds; ++r) {
-      double q_r = 0.0;
-      std::vector<double> p_r, d_r;
-      const auto octomaps = [&] {
-        octomap::OcTree full(resolution), discretized(resolution);
-        p_r = timeFrames(frames, [&](const Frame& f) { full.insertPointCloud(f.points, origin(f)); });
-        d_r = timeFrames(frames, [&](const Frame& f) {
-          discretized.insertPointCloud(f.points, origin(f), -1.0, false, true);
-        });
-      };
-      if (r % 2 == 1 && !ours_only) octomaps();
-      q_r = pipelinedMsPerFrame(frames, options, 2, &pipelined_tree);
-      if (r % 2 == 0 && !ours_only) octomaps();
-      pipelined.push_back(q_r);
-      if (ours_only) continue;
-      plain.insert(plain.end(), p_r.begin(), p_r.end());
-      discrete.insert(discrete.end(), d_r.begin(), d_r.end());
-      pipe_vs_plain.push_back(median(p_r) / q_r);
-      pipe_vs_discrete.push_back(median(d_r) / q_r);
+      if (ours_only) {
+        pipelined.push_back(pipelinedMsPerFrame(frames, options, 2, &pipelined_tree));
+        continue;
+      }
+      octomap::OcTree full(resolution), discretized(resolution);
+      std::vector<double> vs_plain, vs_discrete;
+      for (std::size_t i = 0; i < frames.size(); ++i) {
+        const Frame& f = frames[i];
+        const int turn = r + static_cast<int>(i);
+        vs_plain.push_back(pair(turn, [&] { full.insertPointCloud(f.points, origin(f)); }, &plain));
+        vs_discrete.push_back(pair(turn + 1, [&] { discretized.insertPointCloud(f.points, origin(f), -1.0, false, true); },
+                                   &discrete));
+      }
+      pipe_vs_plain.insert(pipe_vs_plain.end(), vs_plain.begin(), vs_plain.end());
+      pipe_vs_discrete.insert(pipe_vs_discrete.end(), vs_discrete.begin(), vs_discrete.end());
+      round_vs_plain.push_back(median(vs_plain));
+      round_vs_discrete.push_back(median(vs_discrete));
     }
     bool pipelined_same = true;
     if (!ours_only) {
@@ -324,12 +342,12 @@ int main(int argc, char** argv) {
                 scenes[s].name, median(valid), o, q, w, e, p, d, p / o, d / o, pq, dq);
     if (!ours_only) {
       std::string per_round;
-      for (std::size_t r = 0; r < pipe_vs_plain.size(); ++r) {
+      for (std::size_t r = 0; r < round_vs_plain.size(); ++r) {
         char one[64];
-        std::snprintf(one, sizeof one, "%s%.1fx / %.2fx", r ? ", " : "", pipe_vs_plain[r], pipe_vs_discrete[r]);
+        std::snprintf(one, sizeof one, "%s%.1fx / %.2fx", r ? ", " : "", round_vs_plain[r], round_vs_discrete[r]);
         per_round += one;
       }
-      std::printf("         pipelined vs octomap / vs discretized, per round: %s\n", per_round.c_str());
+      std::printf("         pipelined vs octomap / vs discretized, median of each round's pairs: %s\n", per_round.c_str());
       printAgreement("shared free space vs whole rays", "whole-ray", vs_whole);
       printAgreement("ours vs one ray per point, walked whole", "per-point", vs_per_point);
     }
