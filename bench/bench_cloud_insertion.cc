@@ -45,6 +45,7 @@
 #include "octo_slice_mapper/held_out_score.h"
 #include "octo_slice_mapper/map_io.h"
 #include "octo_slice_mapper/mapper.h"
+#include "octo_slice_mapper/memory_reuse.h"
 #include "octo_slice_mapper/sim/depth_camera.h"
 #include "ros/point_cloud_conversion.h"
 
@@ -216,6 +217,7 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
+  osm::keepFreedMemoryForReuse();  // as the node's process does (memory_reuse.h)
   const osm::sim::BoxScene scene = osm::sim::BoxScene::officeRoom();
   struct Scene {
     const char* name;

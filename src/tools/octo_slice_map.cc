@@ -30,6 +30,7 @@
 #include "octo_slice_mapper/cloud_pipeline.h"
 #include "octo_slice_mapper/held_out_score.h"
 #include "octo_slice_mapper/mapping_session.h"
+#include "octo_slice_mapper/memory_reuse.h"
 #include "octo_slice_mapper/option_table.h"
 #include "progress_bar.h"
 
@@ -385,6 +386,7 @@ int main(int argc, char** argv) {
   int code = 0;
   if (!parse(argc, argv, &parsed, &code)) return code;
   const Args& args = parsed;
+  osm::keepFreedMemoryForReuse();  // as the node: each frame's memory reused (memory_reuse.h)
   osm::tools::ProgressBar bar;
   std::unique_ptr<osm::MappingSession> session;
   osm::SessionOptions session_options;
