@@ -7,7 +7,6 @@
 #include <gtest/gtest.h>
 
 #include <sys/resource.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cstdio>
@@ -23,8 +22,8 @@ namespace {
 
 constexpr std::size_t kBlocksPerFrame = 40, kBlockBytes = 256u << 10;
 
-// Page faults of frames 3..`frames` on a new thread, each allocating 40 blocks of 256 KB (a room
-// frame's points, rays, updates and the grouping's pieces come to about as much), touching every
+// Page faults of frames 3..`frames` on a new thread, each allocating 40 blocks of 256 KB (10 MB;
+// a room frame's points, rays, updates and the grouping's pieces come to 6-7 MB), touching every
 // page and freeing them all.
 long faultsOfLaterFrames(int frames) {
   long faults = 0;
