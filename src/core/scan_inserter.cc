@@ -179,19 +179,17 @@ KeyBox ScanInserter::prepareBeams(const Eigen::Vector3d& origin, const octomap::
     const double length = traceLength(beam);
     trace_length_.push_back(length);
     fanOf(beam, length, tan_half, &rays_);
-    KeyBox beam_box;
     bool inside = true;
     // Every ray's end: the arc of ends bulges past the outer rays' chord.
     for (std::size_t r = first; r < rays_.size() && inside; ++r) {
       const Eigen::Vector3d end = origin + rays_[r].direction * length;
       inside = coordToKeySafe(*tree_, end.x(), end.y(), end.z(), &rays_[r].far_key);
-      if (inside) beam_box.add(rays_[r].far_key);
     }
     if (inside) {
-      box.add(beam_box);
       // A ray starting at the origin visits at most its key distance + 1 voxels, and one more when
       // rounding takes another route; a fanned ray starts between the origin and its end.
       for (std::size_t r = first; r < rays_.size(); ++r) {
+        box.add(rays_[r].far_key);  // only once every ray of the beam is known to be inside
         for (int d = 0; d < 3; ++d) max_visits_ += std::abs(int(rays_[r].far_key[d]) - int(origin_key[d]));
         max_visits_ += 4;
       }
@@ -625,6 +623,8 @@ InsertResult ScanInserter::insertIntoLayers(const Eigen::Vector3d& origin, const
 // without reading them (a depth frame's columns were read from the octree: a fifth of applying it).
 InsertResult ScanInserter::apply(std::vector<KeyUpdate> updates, InsertResult result, bool in_tree_order) {
   result.voxels_updated = updates.size();
+  result.updated_keys.reserve(result.updated_keys.size() + updates.size());
+  result.changes.reserve(result.changes.size() + updates.size());
   if (!in_tree_order) sortInTreeOrder(&updates);
   std::vector<KeyUpdate> direct;  // in tree order, as `updates`
   direct.reserve(updates.size());
