@@ -188,3 +188,28 @@ TEST(InverseSensorModel, TabulatedConeMatchesTheDirectModel) {
   EXPECT_EQ(model.hitUpdateInCone(3.0, 1.0, 1.7, cone), 0.0f);
   EXPECT_EQ(model.hitUpdateInCone(3.0, -0.1, 0.0, cone), 0.0f);
 }
+
+// The tracer evaluates a beam's axis with its per-beam constants worked out once (axisProfile):
+// the same floats as the tabulated model at q = 0, to the bit (a map must not change), for hits
+// and no-returns, short and long beams, at voxel size and for points, behind the sensor too.
+TEST(InverseSensorModel, AxisProfileIsTheTabulatedModelOnTheAxisToTheBit) {
+  for (double voxel : {0.0, 0.05}) {
+    InverseSensorModelOptions options;
+    options.sigma_angle_gain = 0.5;  // a widening that q = 0 must not apply
+    const InverseSensorModel model(options, voxel);
+    const InverseSensorModel::ConeTable cone(model, kHalf);
+    int nonzero = 0;
+    for (double range : {0.31, 1.7, 4.4, 12.9}) {
+      const InverseSensorModel::AxisProfile hit = model.axisProfile(range, cone, 1.0);
+      const InverseSensorModel::AxisProfile none = model.axisProfile(range, cone, -1.0);
+      for (double along = -0.05; along < range + 0.5; along += 0.00173) {
+        const float expected = model.hitUpdateInCone(range, along, 0.0, cone);
+        EXPECT_EQ(model.onAxis(hit, along), expected) << voxel << " " << range << " " << along;
+        EXPECT_EQ(model.onAxis(none, along), model.noReturnUpdateInCone(range, along, 0.0, cone))
+            << voxel << " " << range << " " << along;
+        nonzero += expected != 0.0f;
+      }
+    }
+    EXPECT_GT(nonzero, 5000);
+  }
+}

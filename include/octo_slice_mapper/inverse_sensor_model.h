@@ -74,6 +74,14 @@ class InverseSensorModel {
   // the cone tabulated (within 1e-5 of the functions above, in weight and in sigma).
   float hitUpdateInCone(double range, double along, double q, const ConeTable& cone, double occupied_share = 1.0) const;
   float noReturnUpdateInCone(double clear_distance, double along, double q, const ConeTable& cone) const;
+  // What those two give on a beam's axis (q = 0), with what depends on the beam alone (the cone's
+  // weight and sigma there, half a voxel in sigmas) worked out once per beam: the same floats, for
+  // a division and two table lookups less per voxel. `share` < 0 for a no-return beam.
+  struct AxisProfile {
+    double reference = 0.0, w = 0.0, sigma = 1.0, k = 0.0, share = -1.0;
+  };
+  AxisProfile axisProfile(double reference, const ConeTable& cone, double share) const;
+  float onAxis(const AxisProfile& axis, double along) const;
 
   // Distance beyond the return after which the model carries no information (the tracer stops there).
   // (sigma grows off axis by at most 1 + sigma_angle_gain.)
@@ -122,7 +130,10 @@ class InverseSensorModel {
   double sigmaWidened(double range, double widen) const;
   // The update at `along` for a beam ending at `reference`, weighted by the cone; `share` < 0 for
   // a no-return beam (free valley only).
-  float profileUpdate(double reference, double along, double w, double sigma, double share) const;
+  // `k`: half a voxel in sigmas.
+  float profileUpdate(double reference, double along, double w, double sigma, double k, double share) const;
+  // The cone's weight and sigma at q < 1 (its table interpolated).
+  void coneAt(double reference, double q, const ConeTable& cone, double* w, double* sigma) const;
   float directUpdate(double reference, double along, double off_axis, double half_angle, double share) const;
   float tabulatedUpdate(double reference, double along, double q, const ConeTable& cone, double share) const;
   std::vector<double> free_profile_;  // l_free * F(u) on [kPureFreeBelow, kBehindCutoff]

@@ -128,14 +128,13 @@ float InverseSensorModel::noReturnUpdate(double clear_distance, double along, do
 }
 
 __attribute__((always_inline)) inline float InverseSensorModel::profileUpdate(double reference, double along,
-                                                                              double w, double sigma,
+                                                                              double w, double sigma, double k,
                                                                               double share) const {
   const double u = (along - reference) / sigma;
   if (u >= kBehindCutoff) return 0.0f;
   // Deep in the free valley F = 1 and M = 0 to float precision.
   if (u < kPureFreeBelow) return static_cast<float>(w * l_free_);
   double value = lookup(free_profile_, u);
-  const double k = 0.5 * voxel_size_ / sigma;
   // Further than 6 sigma in front of the voxel the peak's mass in it is below 1e-9: not computed.
   if (share > 0.0 && u + k > -kNoMassBelow) {
     const double mass = k > 0.0 ? normalCdf(u + k) - normalCdf(u - k) : std::exp(-0.5 * u * u);
@@ -150,7 +149,8 @@ float InverseSensorModel::directUpdate(double reference, double along, double of
                                        double share) const {
   const double w = coneWeight(off_axis, half_angle);
   if (w <= 0.0 || along < 0.0) return 0.0f;
-  return profileUpdate(reference, along, w, sigmaAt(reference, off_axis, half_angle), share);
+  const double sigma = sigmaAt(reference, off_axis, half_angle);
+  return profileUpdate(reference, along, w, sigma, 0.5 * voxel_size_ / sigma, share);
 }
 
 InverseSensorModel::ConeTable::ConeTable(const InverseSensorModel& model, double half_angle)
@@ -166,13 +166,36 @@ __attribute__((always_inline)) inline float InverseSensorModel::tabulatedUpdate(
                                                                                 double q, const ConeTable& cone,
                                                                                 double share) const {
   if (!(q < 1.0) || along < 0.0) return 0.0f;
+  double w, sigma;
+  coneAt(reference, q, cone, &w, &sigma);
+  if (w <= 0.0) return 0.0f;
+  return profileUpdate(reference, along, w, sigma, 0.5 * voxel_size_ / sigma, share);
+}
+
+__attribute__((always_inline)) inline void InverseSensorModel::coneAt(double reference, double q,
+                                                                      const ConeTable& cone, double* w,
+                                                                      double* sigma) const {
   const double x = q * ConeTable::kSteps;
   const int i = static_cast<int>(x);  // < kSteps, so i + 1 is in the table
   const double f = x - i;
-  const double w = cone.weight_[i] + f * (cone.weight_[i + 1] - cone.weight_[i]);
-  if (w <= 0.0) return 0.0f;
+  *w = cone.weight_[i] + f * (cone.weight_[i + 1] - cone.weight_[i]);
   const double widen = cone.widen_[i] + f * (cone.widen_[i + 1] - cone.widen_[i]);
-  return profileUpdate(reference, along, w, sigmaWidened(reference, widen), share);
+  *sigma = sigmaWidened(reference, widen);
+}
+
+InverseSensorModel::AxisProfile InverseSensorModel::axisProfile(double reference, const ConeTable& cone,
+                                                                double share) const {
+  AxisProfile axis;
+  axis.reference = reference;
+  axis.share = share;
+  coneAt(reference, 0.0, cone, &axis.w, &axis.sigma);  // as tabulatedUpdate at q = 0, to the bit
+  axis.k = 0.5 * voxel_size_ / axis.sigma;
+  return axis;
+}
+
+float InverseSensorModel::onAxis(const AxisProfile& axis, double along) const {
+  if (along < 0.0 || axis.w <= 0.0) return 0.0f;
+  return profileUpdate(axis.reference, along, axis.w, axis.sigma, axis.k, axis.share);
 }
 
 float InverseSensorModel::hitUpdateInCone(double range, double along, double q, const ConeTable& cone,

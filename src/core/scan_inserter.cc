@@ -247,7 +247,8 @@ class BeamEvidence {
         pure_free_until_(beam.length - model.pureFreeMargin(beam.length)),
         // Off the axis, where the weight is still 1, the free valley ends sooner (sigma widens).
         off_axis_free_until_(beam.length +
-                             InverseSensorModel::kPureFreeBelow * model.sigmaAt(beam.length, half_angle, half_angle)) {
+                             InverseSensorModel::kPureFreeBelow * model.sigmaAt(beam.length, half_angle, half_angle)),
+        axis_(model.axisProfile(beam.length, cone, beam.hit ? 1.0 : -1.0)) {
     // One return is one obstacle somewhere across the cone: a voxel off the axis holds its width's
     // share of a cross-section wider than a voxel (the axis' voxels hold the most likely part).
     const double cross_section = 2.0 * beam.length * tan_half_;
@@ -263,18 +264,15 @@ class BeamEvidence {
     // their centre (judging them by their part nearest the axis, a beam grazing a wall cleared
     // wall voxels it never entered, issue 18).
     const bool on_axis = axis_ray || along <= 0.0;
-    if (on_axis && along < pure_free_until_) return l_free_;
-    double q = 0.0;  // tan(angle off the axis) / tan(half-angle)
-    if (!on_axis) {
-      // tan of the angle between the axis and the voxel's centre; the model only when the voxel
-      // is in the cone's taper or near the return.
-      // (Compared as products: a division only for the voxels that need the model.)
-      const double reach = std::sqrt(lateral_sq);
-      if (reach >= tan_half_ * along) return 0.0f;  // outside the cone
-      if (reach <= tan_full_ * along && along < off_axis_free_until_) return l_free_;
-      q = reach / (along * tan_half_);
-    }
-    return beam_.hit ? model_.hitUpdateInCone(beam_.length, along, q, cone_, on_axis ? 1.0 : off_axis_share_)
+    if (on_axis) return along < pure_free_until_ ? l_free_ : model_.onAxis(axis_, along);
+    // tan of the angle between the axis and the voxel's centre; the model only when the voxel is
+    // in the cone's taper or near the return.
+    // (Compared as products: a division only for the voxels that need the model.)
+    const double reach = std::sqrt(lateral_sq);
+    if (reach >= tan_half_ * along) return 0.0f;  // outside the cone
+    if (reach <= tan_full_ * along && along < off_axis_free_until_) return l_free_;
+    const double q = reach / (along * tan_half_);  // tan(angle off the axis) / tan(half-angle)
+    return beam_.hit ? model_.hitUpdateInCone(beam_.length, along, q, cone_, off_axis_share_)
                      : model_.noReturnUpdateInCone(beam_.length, along, q, cone_);
   }
 
@@ -285,6 +283,7 @@ class BeamEvidence {
   double tan_half_, tan_full_;
   float l_free_;
   double pure_free_until_, off_axis_free_until_, off_axis_share_ = 1.0;
+  InverseSensorModel::AxisProfile axis_;  // the model along the axis, for this beam
 };
 
 // Voxel centres relative to a sensor origin, as OcTree::keyToCoord gives them, with the tree's
