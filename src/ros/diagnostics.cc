@@ -42,7 +42,20 @@ std::string sessionSummary(const NodeCounters& c, const MapFigures& map, double 
   return out.str();
 }
 
-diagnostic_msgs::DiagnosticArray toDiagnostics(const NodeCounters& c, std::uint64_t skipped_before,
+std::string missedSince(const NodeCounters& now, const NodeCounters& before) {
+  // A count taken back (late messages) is not negative loss.
+  const auto grew = [](std::uint64_t now, std::uint64_t before) { return now > before ? now - before : 0; };
+  const std::uint64_t scans = grew(now.scans_missed, before.scans_missed);
+  const std::uint64_t clouds = grew(now.clouds_missed, before.clouds_missed);
+  if (scans == 0 && clouds == 0) return "";
+  std::string what;
+  if (scans) what = std::to_string(scans) + " scan(s)";
+  if (clouds) what += (what.empty() ? "" : " and ") + std::to_string(clouds) + " cloud(s)";
+  return what + " never reached the mapper (gaps in header.seq): ROS drops the oldest message of a full queue; "
+                "replay slower (or, for scans, raise ~scan_queue_size)";
+}
+
+diagnostic_msgs::DiagnosticArray toDiagnostics(const NodeCounters& c, const NodeCounters& before,
                                                const std::string& node_name, const ros::Time& stamp) {
   diagnostic_msgs::DiagnosticStatus status;
   status.name = node_name + ": mapping";
@@ -84,13 +97,15 @@ diagnostic_msgs::DiagnosticArray toDiagnostics(const NodeCounters& c, std::uint6
   add("online_pass_s", ms);
   std::snprintf(ms, sizeof(ms), "%.3f", c.optimized_map_age);
   add("optimized_map_age_s", ms);
-  const std::uint64_t new_skips = c.skippedTotal() - std::min(skipped_before, c.skippedTotal());
-  if (new_skips == 0) {
+  const std::uint64_t new_skips = c.skippedTotal() - std::min(before.skippedTotal(), c.skippedTotal());
+  const std::string missed = missedSince(c, before);
+  if (new_skips == 0 && missed.empty()) {
     status.level = diagnostic_msgs::DiagnosticStatus::OK;
     status.message = "mapping";
   } else {
     status.level = diagnostic_msgs::DiagnosticStatus::WARN;
-    status.message = std::to_string(new_skips) + " scans skipped since the last report (see skipped_*)";
+    if (new_skips) status.message = std::to_string(new_skips) + " scans skipped since the last report (see skipped_*)";
+    if (!missed.empty()) status.message += (status.message.empty() ? "" : "; ") + missed;
   }
   diagnostic_msgs::DiagnosticArray array;
   array.header.stamp = stamp;

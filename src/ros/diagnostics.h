@@ -70,9 +70,15 @@ struct MapFigures {
 // resets: the mapper's own count starts again at a reset), then the map's figures.
 std::string sessionSummary(const NodeCounters& counters, const MapFigures& map, double wall_seconds);
 
-// One status: OK, or WARN when scans were skipped since `skipped_before` (the total at the last
-// report), naming the reasons.
-diagnostic_msgs::DiagnosticArray toDiagnostics(const NodeCounters& counters, std::uint64_t skipped_before,
+// What never reached the node since `before` (the counters at the last report), in words for a
+// log line and the status ("" when nothing). Told by the net count, not by each gap as it is
+// seen: a message that came after a later one (a bag recorded in another order) fills its gap
+// within the second, and is no loss.
+std::string missedSince(const NodeCounters& now, const NodeCounters& before);
+
+// One status: OK, or WARN when scans were skipped or messages missed since `before` (the counters
+// at the last report), naming what.
+diagnostic_msgs::DiagnosticArray toDiagnostics(const NodeCounters& counters, const NodeCounters& before,
                                                const std::string& node_name, const ros::Time& stamp);
 
 }  // namespace ros_adapter

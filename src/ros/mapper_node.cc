@@ -125,12 +125,9 @@ void MapperNode::connect(const std::string& topic, std::uint32_t queue, const ro
       [this, input](const ros::MessageEvent<M const>& event) {
         const boost::shared_ptr<const M>& msg = event.getConstMessage();
         input->waiting.arrived(msg, ros::WallTime::now());
-        const std::uint64_t missed = input->sequence.add(event.getPublisherName(), msg->header.seq);
-        if (missed > 0) {
-          ROS_WARN_THROTTLE(10.0, "%llu %s(s) from %s never reached the mapper (a gap in header.seq): ROS drops the "
-                            "oldest of a full queue; replay slower (or, for scans, raise ~scan_queue_size)",
-                            static_cast<unsigned long long>(missed), Kind<M>::kName, event.getPublisherName().c_str());
-        }
+        // What never came is told once a second, from the net count (publishDiagnostics): a gap a
+        // late message fills is no loss.
+        input->sequence.add(event.getPublisherName(), msg->header.seq);
         std::lock_guard<std::mutex> lock(counters_mutex_);
         Kind<M>::received(counters_)++;
         Kind<M>::missed(counters_) = input->sequence.missed();  // (a late one is taken back)
@@ -365,8 +362,10 @@ void MapperNode::publishDiagnostics(const ros::WallTimerEvent&) {
     c.online_pass_seconds = online.last_pass_seconds;
     c.optimized_map_age = online.last_result_age;
   }
-  diagnostics_pub_.publish(toDiagnostics(c, skipped_at_last_report_, ros::this_node::getName(), ros::Time::now()));
-  skipped_at_last_report_ = c.skippedTotal();
+  const std::string missed = missedSince(c, at_last_report_);
+  if (!missed.empty()) ROS_WARN_THROTTLE(10.0, "%s", missed.c_str());
+  diagnostics_pub_.publish(toDiagnostics(c, at_last_report_, ros::this_node::getName(), ros::Time::now()));
+  at_last_report_ = c;
 }
 
 std::string MapperNode::summary() {

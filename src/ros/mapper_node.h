@@ -95,7 +95,7 @@ class MapperNode {
   mutable std::mutex counters_mutex_;  // guards the counters and what follows
   NodeCounters counters_;              // map sizes filled in when reported
   SkipLog skip_log_;
-  std::uint64_t skipped_at_last_report_ = 0;
+  NodeCounters at_last_report_;  // as of the last /diagnostics report: what is new since (its timer only)
   ros::Time last_stamp_;
   ros::WallTime started_;
   // Last: their threads use the session and the publisher until they are destroyed.
