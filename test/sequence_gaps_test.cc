@@ -67,3 +67,41 @@ TEST(SequenceGaps, AMessageLaterThanTheWindowIsARestart) {
   EXPECT_EQ(gaps.add("/play", 12), 1u);
   EXPECT_EQ(gaps.missed(), 4999u);
 }
+
+// What the node warns of: a gap counts as lost only once its stream is SequenceGaps::kSettle
+// messages past it, so a scan recorded after the next one is never reported lost, not even for
+// the moment between the two (the node's warning once came at each gap as it was seen).
+TEST(SequenceGaps, AGapIsLostOnlyOnceItsStreamHasGoneOnPastIt) {
+  SequenceGaps gaps;
+  gaps.add("/play", 0);
+  gaps.add("/play", 2);  // 1 not there yet
+  EXPECT_EQ(gaps.missed(), 1u);
+  EXPECT_EQ(gaps.settled(), 0u) << "it may come late";
+  gaps.add("/play", 1);
+  for (std::uint32_t s = 3; s < 40; ++s) gaps.add("/play", s);
+  EXPECT_EQ(gaps.missed(), 0u);
+  EXPECT_EQ(gaps.settled(), 0u) << "it came: never lost";
+
+  gaps.add("/play", 45);  // 40..44 dropped by a full queue
+  EXPECT_EQ(gaps.missed(), 5u);
+  EXPECT_EQ(gaps.settled(), 0u);
+  for (std::uint32_t s = 46; s <= 40 + SequenceGaps::kSettle; ++s) gaps.add("/play", s);
+  EXPECT_EQ(gaps.settled(), 1u) << "40 is kSettle behind now, 41..44 are not yet";
+  for (std::uint32_t s = 41 + SequenceGaps::kSettle; s <= 44 + SequenceGaps::kSettle; ++s) gaps.add("/play", s);
+  EXPECT_EQ(gaps.settled(), 5u);
+  EXPECT_EQ(gaps.missed(), 5u);
+  gaps.add("/play", 42);  // later than anyone waits for, but it came
+  EXPECT_EQ(gaps.missed(), 4u);
+  EXPECT_EQ(gaps.settled(), 4u);
+}
+
+TEST(SequenceGaps, GapsBeyondTheWindowAndBeforeARestartAreLost) {
+  SequenceGaps gaps;
+  gaps.add("/play", 0);
+  gaps.add("/play", 5000);  // 4999 missed; the 3999 not looked for are lost at once
+  EXPECT_EQ(gaps.settled(), 4999u - 1000u + 1000u - (SequenceGaps::kSettle - 1))
+      << "the last kSettle - 1 of the window may still come";
+  gaps.add("/play", 7);  // a restart: what the old stream still waited for is lost
+  EXPECT_EQ(gaps.settled(), 4999u);
+  EXPECT_EQ(gaps.missed(), 4999u);
+}

@@ -43,10 +43,10 @@ std::string sessionSummary(const NodeCounters& c, const MapFigures& map, double 
 }
 
 std::string missedSince(const NodeCounters& now, const NodeCounters& before) {
-  // A count taken back (late messages) is not negative loss.
+  // A count taken back (a message later than kSettle) is not negative loss.
   const auto grew = [](std::uint64_t now, std::uint64_t before) { return now > before ? now - before : 0; };
-  const std::uint64_t scans = grew(now.scans_missed, before.scans_missed);
-  const std::uint64_t clouds = grew(now.clouds_missed, before.clouds_missed);
+  const std::uint64_t scans = grew(now.scans_lost, before.scans_lost);
+  const std::uint64_t clouds = grew(now.clouds_lost, before.clouds_lost);
   if (scans == 0 && clouds == 0) return "";
   std::string what;
   if (scans) what = std::to_string(scans) + " scan(s)";

@@ -18,6 +18,9 @@ struct NodeCounters {
   std::uint64_t clouds_received = 0, clouds_inserted = 0;  // cloud_in; their skips are skipped_cloud_*
   // Never received: gaps in their publishers' header.seq (ROS dropped them from a full queue).
   std::uint64_t scans_missed = 0, clouds_missed = 0;
+  // Of them, those their stream has gone SequenceGaps::kSettle messages past: surely lost, not
+  // late (what the log and the status warn of; not a /diagnostics value of its own).
+  std::uint64_t scans_lost = 0, clouds_lost = 0;
   std::map<std::string, std::uint64_t> skipped;  // whole scans dropped, per reason
   std::uint64_t time_jumps_back = 0;
   // Delivered by the tf filter ahead of an earlier scan, and held until that one's turn.
@@ -70,10 +73,10 @@ struct MapFigures {
 // resets: the mapper's own count starts again at a reset), then the map's figures.
 std::string sessionSummary(const NodeCounters& counters, const MapFigures& map, double wall_seconds);
 
-// What never reached the node since `before` (the counters at the last report), in words for a
-// log line and the status ("" when nothing). Told by the net count, not by each gap as it is
-// seen: a message that came after a later one (a bag recorded in another order) fills its gap
-// within the second, and is no loss.
+// What was lost since `before` (the counters at the last report): messages that never reached
+// the node and whose stream has gone on past them (scans_lost, clouds_lost), in words for a log
+// line and the status ("" when nothing). Not each gap as it is seen: a message recorded after
+// the next one (a bag in another order) fills its gap at once, and is no loss.
 std::string missedSince(const NodeCounters& now, const NodeCounters& before);
 
 // One status: OK, or WARN when scans were skipped or messages missed since `before` (the counters

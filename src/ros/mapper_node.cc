@@ -24,6 +24,7 @@ struct Kind<sensor_msgs::LaserScan> {
   static constexpr const char* kInvalid = "invalid_scan";
   static std::uint64_t& received(NodeCounters& c) { return c.scans_received; }
   static std::uint64_t& missed(NodeCounters& c) { return c.scans_missed; }
+  static std::uint64_t& lost(NodeCounters& c) { return c.scans_lost; }
   static std::uint64_t& inserted(NodeCounters& c) { return c.scans_inserted; }
   static double& seconds(NodeCounters& c) { return c.scan_insert_seconds; }
   static double& cpuSeconds(NodeCounters& c) { return c.scan_insert_cpu_seconds; }
@@ -38,6 +39,7 @@ struct Kind<sensor_msgs::PointCloud2> {
   static constexpr const char* kInvalid = "invalid_cloud";
   static std::uint64_t& received(NodeCounters& c) { return c.clouds_received; }
   static std::uint64_t& missed(NodeCounters& c) { return c.clouds_missed; }
+  static std::uint64_t& lost(NodeCounters& c) { return c.clouds_lost; }
   static std::uint64_t& inserted(NodeCounters& c) { return c.clouds_inserted; }
   static double& seconds(NodeCounters& c) { return c.cloud_insert_seconds; }
   static double& cpuSeconds(NodeCounters& c) { return c.cloud_insert_cpu_seconds; }
@@ -125,12 +127,13 @@ void MapperNode::connect(const std::string& topic, std::uint32_t queue, const ro
       [this, input](const ros::MessageEvent<M const>& event) {
         const boost::shared_ptr<const M>& msg = event.getConstMessage();
         input->waiting.arrived(msg, ros::WallTime::now());
-        // What never came is told once a second, from the net count (publishDiagnostics): a gap a
-        // late message fills is no loss.
+        // What never came is warned of once a second (publishDiagnostics), once its stream has
+        // gone on past it: a gap that a late message fills is no loss.
         input->sequence.add(event.getPublisherName(), msg->header.seq);
         std::lock_guard<std::mutex> lock(counters_mutex_);
         Kind<M>::received(counters_)++;
         Kind<M>::missed(counters_) = input->sequence.missed();  // (a late one is taken back)
+        Kind<M>::lost(counters_) = input->sequence.settled();
       }));
   // No tolerance: a message is handled as soon as its transform exists (a tolerance would hold
   // every one back until tf runs that far ahead of it).
