@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <iterator>
 #include <map>
 #include <set>
 #include <string>
@@ -24,32 +25,21 @@ class SequenceGaps {
   // none). A message that comes after a later one (a recording in another order) is no longer
   // counted missed when it arrives, and is no restart.
   std::uint64_t add(const std::string& publisher, std::uint32_t seq) {
-    const auto [it, first] = streams_.emplace(publisher, Stream{seq, {}, {}});
+    const auto [it, first] = streams_.emplace(publisher, Stream{seq, {}});
     if (first) return 0;
     Stream& s = it->second;
     if (seq > s.last) {
       const std::uint32_t gap = seq - s.last - 1;
-      const std::uint32_t looked_for = std::min(gap, kLateWindow);
-      for (std::uint32_t k = 1; k <= looked_for; ++k) {
-        s.missing.insert(seq - k);
-        s.unsettled.insert(seq - k);
-      }
-      settled_ += gap - looked_for;  // never looked for: lost at once
+      for (std::uint32_t k = 1; k <= std::min(gap, kLateWindow); ++k) s.missing.insert(seq - k);
       s.last = seq;
-      while (!s.unsettled.empty() && *s.unsettled.begin() + kSettle <= seq) {
-        s.unsettled.erase(s.unsettled.begin());
-        settled_++;
-      }
       while (!s.missing.empty() && *s.missing.begin() + kLateWindow < seq) s.missing.erase(s.missing.begin());
       missed_ += gap;
       return gap;
     }
     if (s.missing.erase(seq) > 0) {
       missed_--;  // late, not lost
-      if (s.unsettled.erase(seq) == 0) settled_--;
     } else if (seq < s.last) {
-      settled_ += s.unsettled.size();  // its gaps will not be filled now
-      s = Stream{seq, {}, {}};          // started again
+      s = Stream{seq, {}};  // started again
     }
     return 0;
   }
@@ -57,20 +47,29 @@ class SequenceGaps {
   std::uint64_t missed() const { return missed_; }
   // Of them, the ones whose stream has gone kSettle messages past them: surely lost. What a user
   // is warned of (a message recorded after the next one fills its gap at once, and must not be
-  // reported as lost even for a moment).
-  std::uint64_t settled() const { return settled_; }
+  // reported as lost even for a moment). All missed but the gaps fewer than kSettle behind their
+  // stream's newest message (gaps beyond the late window, and those of a stream that started
+  // again, are no longer looked for: lost).
+  std::uint64_t settled() const {
+    std::uint64_t recent = 0;
+    for (const auto& stream : streams_) {
+      const Stream& s = stream.second;
+      const auto first_recent = s.last < kSettle ? s.missing.begin() : s.missing.upper_bound(s.last - kSettle);
+      recent += static_cast<std::uint64_t>(std::distance(first_recent, s.missing.end()));
+    }
+    return missed_ - recent;
+  }
 
   static constexpr std::uint32_t kSettle = 10;  // messages past a gap (40 Hz: a quarter second)
 
  private:
   static constexpr std::uint32_t kLateWindow = 1000;  // how far back a late message is looked for
   struct Stream {
-    std::uint32_t last;                 // the highest seq seen since it (re)started
-    std::set<std::uint32_t> missing;    // gaps within kLateWindow of `last`
-    std::set<std::uint32_t> unsettled;  // those of them fewer than kSettle behind `last`
+    std::uint32_t last;              // the highest seq seen since it (re)started
+    std::set<std::uint32_t> missing;  // gaps within kLateWindow of `last`
   };
   std::map<std::string, Stream> streams_;
-  std::uint64_t missed_ = 0, settled_ = 0;
+  std::uint64_t missed_ = 0;
 };
 
 }  // namespace ros_adapter
