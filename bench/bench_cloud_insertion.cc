@@ -83,13 +83,20 @@ std::vector<Frame> framesOf(const osm::sim::BoxScene& scene, const Eigen::Vector
   return frames;
 }
 
+// Wall time of one call, ms.
+template <typename Work>
+double msOf(Work&& work) {
+  const auto t0 = std::chrono::steady_clock::now();
+  work();
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
 // Throughput of the frames through a CloudPipeline of `threads` workers into a fresh session: ms
 // per frame (all frames' wall time / frames), and the session's octree afterwards in `tree`.
 double pipelinedMsPerFrame(const std::vector<Frame>& frames, const osm::MapperOptions& options, unsigned threads,
                            std::unique_ptr<octomap::OcTree>* tree) {
   osm::MappingSession session(options, osm::SessionOptions{});
-  const auto t0 = std::chrono::steady_clock::now();
-  {
+  const double ms = msOf([&] {  // the pipeline's start and drain included
     osm::CloudPipeline pipeline(&session, threads, 2 * threads);
     for (const Frame& f : frames) {
       // As the node: the layout checked on this thread, the points converted on the worker.
@@ -101,8 +108,7 @@ double pipelinedMsPerFrame(const std::vector<Frame>& frames, const osm::MapperOp
       });
     }
     pipeline.wait();
-  }
-  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  });
   if (tree) {
     session.withMapper([&](osm::Mapper& m) {
       tree->reset(new octomap::OcTree(m.tree()));
@@ -188,11 +194,7 @@ void printAgreement(const char* what, const char* reference, const Agreement& g)
 template <typename Insert>
 std::vector<double> timeFrames(const std::vector<Frame>& frames, Insert&& insert) {
   std::vector<double> ms;
-  for (const Frame& f : frames) {
-    const auto t0 = std::chrono::steady_clock::now();
-    insert(f);
-    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-  }
+  for (const Frame& f : frames) ms.push_back(msOf([&] { insert(f); }));
   return ms;
 }
 
@@ -273,20 +275,15 @@ int main(int argc, char** argv) {
       const Eigen::Vector3d o = f.optical_in_map.translation();
       return octomap::point3d(o.x(), o.y(), o.z());
     };
-    const auto timeOne = [](auto&& insert) {
-      const auto t0 = std::chrono::steady_clock::now();
-      insert();
-      return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    };
     // One OctoMap frame and one pass beside it: the ratio of the frame's ms to the pass's per frame.
     // `tree`: where the pass's octree goes (the last pass's is checked; copying every one was
     // 100 octree copies per scene for nothing).
     const auto pair = [&](int turn, auto&& octomap_frame, std::vector<double>* octomap_ms,
                           std::unique_ptr<octomap::OcTree>* tree) {
       double frame_ms = 0.0, pass_ms = 0.0;
-      if (turn % 2 == 1) frame_ms = timeOne(octomap_frame);
+      if (turn % 2 == 1) frame_ms = msOf(octomap_frame);
       pass_ms = pipelinedMsPerFrame(frames, options, 2, tree);
-      if (turn % 2 == 0) frame_ms = timeOne(octomap_frame);
+      if (turn % 2 == 0) frame_ms = msOf(octomap_frame);
       pipelined.push_back(pass_ms);
       octomap_ms->push_back(frame_ms);
       return frame_ms / pass_ms;
