@@ -58,25 +58,25 @@ TEST(SessionSummary, CountsAsDiagnosticsDoes) {
 // The log line and the status warn of messages lost since the last report (gaps their stream has
 // gone on past, SequenceGaps::settled), once: not of a gap a late message filled, which was
 // never counted as lost (SequenceGaps.AGapIsLostOnlyOnceItsStreamHasGoneOnPastIt).
-TEST(MissedSince, ReportsWhatWasLostSinceTheLastReport) {
+TEST(LostSince, ReportsWhatWasLostSinceTheLastReport) {
   NodeCounters before, now;
   now.scans_missed = 3;  // gaps seen, not settled: they may still come
-  EXPECT_EQ(missedSince(now, before), "");
+  EXPECT_EQ(lostSince(now, before), "");
   EXPECT_EQ(toDiagnostics(now, before, "/mapper_node", ros::Time(1.0)).status.at(0).level,
             diagnostic_msgs::DiagnosticStatus::OK);
 
   now.scans_lost = 2;
   now.clouds_lost = 1;
-  const std::string said = missedSince(now, before);
+  const std::string said = lostSince(now, before);
   EXPECT_EQ(said.rfind("2 scan(s) and 1 cloud(s) never reached the mapper", 0), 0u) << said;
   const diagnostic_msgs::DiagnosticArray report = toDiagnostics(now, before, "/mapper_node", ros::Time(2.0));
   EXPECT_EQ(report.status.at(0).level, diagnostic_msgs::DiagnosticStatus::WARN);
   EXPECT_NE(report.status.at(0).message.find(said), std::string::npos) << report.status.at(0).message;
 
   before = now;  // reported: the same count is not news again
-  EXPECT_EQ(missedSince(now, before), "");
+  EXPECT_EQ(lostSince(now, before), "");
   now.scans_lost = 1;  // one came later than anyone waits for, after all
-  EXPECT_EQ(missedSince(now, before), "") << "a count taken back is no loss";
+  EXPECT_EQ(lostSince(now, before), "") << "a count taken back is no loss";
   now.skipped["zero_stamp"] = 1;
   EXPECT_EQ(toDiagnostics(now, before, "/mapper_node", ros::Time(3.0)).status.at(0).message,
             "1 scans skipped since the last report (see skipped_*)");

@@ -42,7 +42,7 @@ std::string sessionSummary(const NodeCounters& c, const MapFigures& map, double 
   return out.str();
 }
 
-std::string missedSince(const NodeCounters& now, const NodeCounters& before) {
+std::string lostSince(const NodeCounters& now, const NodeCounters& before) {
   // A count taken back (a message later than kSettle) is not negative loss.
   const auto grew = [](std::uint64_t now, std::uint64_t before) { return now > before ? now - before : 0; };
   const std::uint64_t scans = grew(now.scans_lost, before.scans_lost);
@@ -98,14 +98,14 @@ diagnostic_msgs::DiagnosticArray toDiagnostics(const NodeCounters& c, const Node
   std::snprintf(ms, sizeof(ms), "%.3f", c.optimized_map_age);
   add("optimized_map_age_s", ms);
   const std::uint64_t new_skips = c.skippedTotal() - std::min(before.skippedTotal(), c.skippedTotal());
-  const std::string missed = missedSince(c, before);
-  if (new_skips == 0 && missed.empty()) {
+  const std::string lost = lostSince(c, before);
+  if (new_skips == 0 && lost.empty()) {
     status.level = diagnostic_msgs::DiagnosticStatus::OK;
     status.message = "mapping";
   } else {
     status.level = diagnostic_msgs::DiagnosticStatus::WARN;
     if (new_skips) status.message = std::to_string(new_skips) + " scans skipped since the last report (see skipped_*)";
-    if (!missed.empty()) status.message += (status.message.empty() ? "" : "; ") + missed;
+    if (!lost.empty()) status.message += (status.message.empty() ? "" : "; ") + lost;
   }
   diagnostic_msgs::DiagnosticArray array;
   array.header.stamp = stamp;

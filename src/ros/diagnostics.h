@@ -77,9 +77,9 @@ std::string sessionSummary(const NodeCounters& counters, const MapFigures& map, 
 // the node and whose stream has gone on past them (scans_lost, clouds_lost), in words for a log
 // line and the status ("" when nothing). Not each gap as it is seen: a message recorded after
 // the next one (a bag in another order) fills its gap at once, and is no loss.
-std::string missedSince(const NodeCounters& now, const NodeCounters& before);
+std::string lostSince(const NodeCounters& now, const NodeCounters& before);
 
-// One status: OK, or WARN when scans were skipped or messages missed since `before` (the counters
+// One status: OK, or WARN when scans were skipped or messages lost since `before` (the counters
 // at the last report), naming what.
 diagnostic_msgs::DiagnosticArray toDiagnostics(const NodeCounters& counters, const NodeCounters& before,
                                                const std::string& node_name, const ros::Time& stamp);

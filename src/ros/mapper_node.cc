@@ -365,8 +365,8 @@ void MapperNode::publishDiagnostics(const ros::WallTimerEvent&) {
     c.online_pass_seconds = online.last_pass_seconds;
     c.optimized_map_age = online.last_result_age;
   }
-  const std::string missed = missedSince(c, at_last_report_);
-  if (!missed.empty()) ROS_WARN_THROTTLE(10.0, "%s", missed.c_str());
+  const std::string lost = lostSince(c, at_last_report_);
+  if (!lost.empty()) ROS_WARN_THROTTLE(10.0, "%s", lost.c_str());
   diagnostics_pub_.publish(toDiagnostics(c, at_last_report_, ros::this_node::getName(), ros::Time::now()));
   at_last_report_ = c;
 }
