@@ -182,6 +182,7 @@ TEST_F(AtomicSaveTest, AMixedSetIsDetected) {
       << mixed.describe();
   EXPECT_EQ(mapSetPrefixOf(b + ".bt"), b);
   EXPECT_EQ(mapSetPrefixOf(b + ".ot"), b);
+  EXPECT_EQ(mapSetPrefixOf(b + "_incremental.yaml"), b);
 }
 
 // Kills during set saves: every final name is a whole file, and checkMapSet calls a set mixed

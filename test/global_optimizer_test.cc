@@ -285,3 +285,52 @@ TEST(GlobalOptimizer, ReadsInfinityAsTheInsertionDoes) {
     EXPECT_EQ(optimized.report.beams, rep117 ? 101u : 1u) << "REP 117 " << rep117;
   }
 }
+
+// A warm start brings in occupied cells no beam ever meets first (the incremental map's cells
+// behind a wall's face). They explain nothing, so a tie would keep them; the pass frees them at
+// the end, without changing the likelihood or leaving a cell that could still gain.
+TEST(GlobalOptimizer, AWarmStartsCellsBehindAWallThatExplainNoBeamAreFreed) {
+  const sim::SimulatedSession session(sim::FloorPlan::doorCorridor(), sim::SessionSpec::corridorPass());
+  GlobalOptimizer optimizer(GlobalOptimizerOptions{}, 0.05);
+  optimizer.build(storeAll(session.allScans()));
+  optimizer.optimize();
+  GridImage start = optimizer.result();
+  // Every occupied cell thickened by two cells in each direction: the cells added behind the
+  // faces are within some beam's traced length (observed) but behind its first obstacle.
+  GridImage thick = start;
+  for (int j = 0; j < start.height; ++j) {
+    for (int i = 0; i < start.width; ++i) {
+      if (start.at(i, j) != 100) continue;
+      for (int dj = -2; dj <= 2; ++dj) {
+        for (int di = -2; di <= 2; ++di) {
+          const int a = i + di, b = j + dj;
+          if (a >= 0 && b >= 0 && a < start.width && b < start.height) thick.cells[std::size_t(b) * start.width + a] = 100;
+        }
+      }
+    }
+  }
+  optimizer.startFrom(thick);
+  const OptimizeReport report = optimizer.optimize();
+  ASSERT_TRUE(report.converged);
+  EXPECT_GT(report.released, 100u);
+  EXPECT_NEAR(optimizer.logLikelihood(), optimizer.recomputeLogLikelihood(), 1e-6 * std::abs(optimizer.logLikelihood()));
+  std::size_t unsupported = 0, occupied = 0;
+  for (std::size_t c = 0; c < optimizer.cellCount(); ++c) {
+    if (!optimizer.observed(c)) continue;
+    ASSERT_LE(optimizer.flipDelta(c), 1e-9) << "cell " << c << " would still improve";
+    if (!optimizer.occupied(c)) continue;
+    ++occupied;
+    // Freeing a cell that is some beam's first obstacle changes that beam's likelihood; freeing
+    // one that explains no beam changes nothing.
+    unsupported += optimizer.flipDelta(c) == 0.0;
+  }
+  EXPECT_GT(occupied, 100u);
+  // Kept only where the grid walk and the distances to cell centres disagree (see
+  // releaseUnsupported): a few cells at grazing angles.
+  EXPECT_LT(unsupported, occupied / 100) << "occupied cells that explain no beam survived";
+  // What is left of the thick walls: each occupied cell is some beam's first obstacle, so none
+  // lies farther behind a face than the thickened start put it.
+  std::size_t thick_occupied = 0;
+  for (std::int8_t v : thick.cells) thick_occupied += v == 100;
+  EXPECT_LT(occupied, thick_occupied / 2);
+}

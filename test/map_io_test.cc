@@ -96,7 +96,7 @@ TEST_F(MapIoTest, MapperResumesFromSavedMap) {
   std::vector<std::string> written;
   std::string error;
   ASSERT_TRUE(mapper_.save(dir_ + "/set", &written, &error)) << error;
-  EXPECT_EQ(written.size(), 5u);
+  EXPECT_EQ(written.size(), 8u) << "PREFIX.{bt,ot,pgm,yaml,png} and PREFIX_incremental.{pgm,yaml,png}";
   Mapper resumed;
   ASSERT_TRUE(resumed.load(dir_ + "/set.ot", &error)) << error;
   EXPECT_EQ(leafLogOdds(resumed.tree()), leafLogOdds(mapper_.tree()));

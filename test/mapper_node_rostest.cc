@@ -35,7 +35,9 @@ const char kMapsDir[] = "/tmp/osm_rostest_maps";
 class MapperNodeTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    map_sub_ = nh_.subscribe("map", 5, &MapperNodeTest::onMap, this);
+    // The incremental slice: what each scan changed, probabilities (`map` turns to the global
+    // pass's map once the background pass has a result; TheMapIsTheSliceUntilThePassHasAResult).
+    map_sub_ = nh_.subscribe("mapper_node/incremental_map", 5, &MapperNodeTest::onMap, this);
     optimized_sub_ = nh_.subscribe("mapper_node/optimized_map", 5, &MapperNodeTest::onOptimizedMap, this);
     diagnostics_sub_ = nh_.subscribe("/diagnostics", 20, &MapperNodeTest::onDiagnostics, this);
     scan_pub_ = nh_.advertise<sensor_msgs::LaserScan>("scan", 20);
@@ -149,7 +151,7 @@ TEST_F(MapperNodeTest, SaveMapWritesLoadableFiles) {
   ASSERT_TRUE(ros::service::waitForService("mapper_node/save_map", 10000));
   ASSERT_TRUE(ros::service::call("mapper_node/save_map", srv));
   ASSERT_TRUE(srv.response.success) << srv.response.message;
-  EXPECT_EQ(srv.response.files.size(), 5u);
+  EXPECT_EQ(srv.response.files.size(), 8u) << "PREFIX.{bt,ot,pgm,yaml,png}, PREFIX_incremental.{pgm,yaml,png}";
   std::string error;
   auto tree = octo_slice_mapper::loadTree(std::string(kMapsDir) + "/rostest_map.bt", &error);
   ASSERT_TRUE(tree) << error;
@@ -295,7 +297,38 @@ TEST_F(MapperNodeTest, TheOnlinePassPublishesTheOptimizedMapUnasked) {
   for (std::int8_t v : answered->data) ASSERT_TRUE(v == 100 || v == 0 || v == -1) << "the optimized map, not the slice";
 }
 
-TEST_F(MapperNodeTest, OptimizeOnSaveWritesTheOptimizedFilesToo) {
+// `map` carries the best map: the incremental slice before the background pass has a result (the
+// first map goes out with the first scan), the pass's result from then on; a reset makes it the
+// slice again.
+TEST_F(MapperNodeTest, TheMapIsTheSliceUntilThePassHasAResult) {
+  std_srvs::Empty empty;
+  ASSERT_TRUE(ros::service::call("mapper_node/reset", empty));
+  nav_msgs::OccupancyGrid::ConstPtr best;
+  ros::Subscriber sub = nh_.subscribe<nav_msgs::OccupancyGrid>(
+      "map", 5, [&best](const nav_msgs::OccupancyGrid::ConstPtr& m) { best = m; });
+  const auto only_trinary = [](const nav_msgs::OccupancyGrid::ConstPtr& m) {
+    for (std::int8_t v : m->data) {
+      if (v != 100 && v != 0 && v != -1) return false;
+    }
+    return true;
+  };
+  ASSERT_TRUE(waitFor([&] { return best && best->data.empty(); }, 10.0)) << "the reset map went out on map";
+  scan_pub_.publish(scan([](double a) { return wallAt(kWallAhead, a); }));
+  ASSERT_TRUE(waitFor([&] { return best && !best->data.empty(); }, 5.0)) << "no map after the first scan";
+  EXPECT_FALSE(only_trinary(best)) << "the first map is the slice, with probabilities";
+  publishWall(kWallAhead, 3);
+  ASSERT_TRUE(waitFor([&] { return best && only_trinary(best) && cellOf(best, 2.12, 0.0) == 100; }, 20.0))
+      << "map never carried the global pass's map";
+  EXPECT_EQ(cellOf(best, 1.0, 0.0), 0);
+  ASSERT_TRUE(map_ != nullptr);
+  EXPECT_FALSE(only_trinary(map_)) << "~incremental_map stays the slice";
+  ASSERT_TRUE(ros::service::call("mapper_node/reset", empty));
+  ASSERT_TRUE(waitFor([&] { return best && best->data.empty(); }, 10.0)) << "after a reset, map is the (empty) slice";
+  publishWall(kWallAhead, 3);  // the wall the later tests expect
+  ASSERT_TRUE(waitFor([this] { return cellAt(2.11, 0.0) > 50; }, 20.0));
+}
+
+TEST_F(MapperNodeTest, ASaveWritesTheGlobalPassesMapAndTheSliceBesideIt) {
   ::mkdir(kMapsDir, 0755);
   publishWall(kWallAhead, 3, 0.1);
   ros::WallDuration(0.5).sleep();
@@ -304,15 +337,19 @@ TEST_F(MapperNodeTest, OptimizeOnSaveWritesTheOptimizedFilesToo) {
   ASSERT_TRUE(ros::service::waitForService("mapper_node_opt/save_map", 10000));
   ASSERT_TRUE(ros::service::call("mapper_node_opt/save_map", srv));
   ASSERT_TRUE(srv.response.success) << srv.response.message;
-  ASSERT_EQ(srv.response.files.size(), 9u) << srv.response.message;
+  ASSERT_EQ(srv.response.files.size(), 8u) << srv.response.message;
   std::string error;
-  auto tree = octo_slice_mapper::loadTree(std::string(kMapsDir) + "/rostest_opt_optimized.bt", &error);
+  auto tree = octo_slice_mapper::loadTree(std::string(kMapsDir) + "/rostest_opt.bt", &error);
   ASSERT_TRUE(tree) << error;
   const octomap::OcTreeNode* wall = tree->search(2.12, 0.0, 0.26);
   ASSERT_NE(wall, nullptr);
   EXPECT_TRUE(tree->isNodeOccupied(wall));
   octo_slice_mapper::GridImage grid;
-  ASSERT_TRUE(octo_slice_mapper::loadPgmYaml(std::string(kMapsDir) + "/rostest_opt_optimized.yaml", &grid, &error)) << error;
+  ASSERT_TRUE(octo_slice_mapper::loadPgmYaml(std::string(kMapsDir) + "/rostest_opt.yaml", &grid, &error)) << error;
+  octo_slice_mapper::GridImage incremental;
+  ASSERT_TRUE(octo_slice_mapper::loadPgmYaml(std::string(kMapsDir) + "/rostest_opt_incremental.yaml", &incremental, &error))
+      << error;
+  EXPECT_NE(grid.cells, incremental.cells) << "PREFIX.* is the global pass's map, PREFIX_incremental.* the slice";
 }
 
 TEST_F(MapperNodeTest, DiagnosticsCountSkippedScansPerReason) {
@@ -430,7 +467,7 @@ TEST_F(MapperNodeTest, TimeJumpingBackIsDetectedAndMappingContinues) {
 TEST_F(MapperNodeTest, AScanOvertakingOneThatWaitsForTfIsInsertedAfterIt) {
   std::vector<ros::Time> update_stamps;
   ros::Subscriber sub = nh_.subscribe<map_msgs::OccupancyGridUpdate>(
-      "map_updates", 50, [&](const map_msgs::OccupancyGridUpdate::ConstPtr& u) { update_stamps.push_back(u->header.stamp); });
+      "mapper_node/incremental_map_updates", 50, [&](const map_msgs::OccupancyGridUpdate::ConstPtr& u) { update_stamps.push_back(u->header.stamp); });
   // The wall once first, so that A and B touch cells the grid has already: they come back as updates.
   publishWall(kWallAhead, 1);
   ASSERT_TRUE(waitFor([this] { return cellAt(2.11, 0.0) > 50; }, 20.0));
@@ -480,11 +517,17 @@ TEST_F(MapperNodeTest, CorruptMapFileStartsAnEmptyMapInsteadOfCrashing) {
 TEST_F(MapperNodeTest, EachScanIsFollowedByAnUpdateOfWhatItTouched) {
   std::vector<map_msgs::OccupancyGridUpdate::ConstPtr> updates;
   ros::Subscriber sub = nh_.subscribe<map_msgs::OccupancyGridUpdate>(
-      "map_updates", 50, [&updates](const map_msgs::OccupancyGridUpdate::ConstPtr& u) { updates.push_back(u); });
-  // A first wall makes the grid; a second scan of it must come back as an update at its stamp.
+      "mapper_node/incremental_map_updates", 50, [&updates](const map_msgs::OccupancyGridUpdate::ConstPtr& u) { updates.push_back(u); });
+  // From an empty map: earlier tests' saves and passes wrote the wall at the clamping bound, where
+  // another hit changes nothing. A first wall makes the grid; a second scan of it must come back
+  // as an update at its stamp.
+  std_srvs::Empty empty;
+  ASSERT_TRUE(ros::service::call("mapper_node/reset", empty));
+  ASSERT_TRUE(waitFor([this] { return map_ && map_->data.empty(); }, 10.0)) << "map not cleared";
   scan_pub_.publish(scan([](double a) { return wallAt(kWallAhead, a); }));
   ASSERT_TRUE(waitFor([this] { return cellAt(2.11, 0.0) > 50; }, 20.0));
   ASSERT_TRUE(waitFor([&sub] { return sub.getNumPublishers() > 0; }, 10.0));
+  ros::WallDuration(0.5).sleep();  // the grid grew: whole maps, not updates, for a moment (MapPublisher)
   auto again = scan([](double a) { return wallAt(kWallAhead, a); });
   scan_pub_.publish(again);
   const auto matching = [&] {
@@ -501,7 +544,9 @@ TEST_F(MapperNodeTest, EachScanIsFollowedByAnUpdateOfWhatItTouched) {
   const auto& info = map_->info;
   const int i = static_cast<int>(std::floor((2.11 - info.origin.position.x) / info.resolution)) - u->x;
   const int j = static_cast<int>(std::floor((0.0 - info.origin.position.y) / info.resolution)) - u->y;
-  ASSERT_TRUE(i >= 0 && j >= 0 && i < int(u->width) && j < int(u->height)) << "the wall lies outside the update";
+  ASSERT_TRUE(i >= 0 && j >= 0 && i < int(u->width) && j < int(u->height)) << "the wall lies outside the update: cell " << i << ", " << j << " of update at " << u->x << ", " << u->y << " ("
+      << u->width << " x " << u->height << "), map origin " << info.origin.position.x << ", " << info.origin.position.y
+      << " (" << info.width << " x " << info.height << ")";
   EXPECT_GT(u->data[std::size_t(j) * u->width + i], 50);
   EXPECT_LT(u->data.size(), map_->data.size()) << "an update covers what the scan touched, not the whole map";
 }

@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <thread>
 
+#include "octo_slice_mapper/held_out_score.h"
 #include "octo_slice_mapper/map_io.h"
 #include "octo_slice_mapper/sim/session.h"
 #include "test_helpers.h"
@@ -46,9 +47,10 @@ class MappingSessionTest : public ::testing::Test {
 };
 std::vector<Scan>* MappingSessionTest::scans_ = nullptr;
 
-// A save writes what the Mapper's own save writes; with the pass, also the optimized set, and the
-// pass's result goes into the map only when asked to.
-TEST_F(MappingSessionTest, SaveWritesTheMapperSetAndWithThePassTheOptimizedSet) {
+// A save without the pass writes what the Mapper's own save writes, and the incremental slice
+// beside it; with the pass, PREFIX.* is the pass's map, and the result goes into the live map only
+// when asked to.
+TEST_F(MappingSessionTest, SaveWritesTheBestMapAndTheIncrementalSliceBesideIt) {
   SessionOptions options;
   options.write_optimized_into_map = false;
   MappingSession session(MapperOptions(), options);
@@ -58,21 +60,30 @@ TEST_F(MappingSessionTest, SaveWritesTheMapperSetAndWithThePassTheOptimizedSet) 
 
   SaveOutcome saved = session.save(dir_ + "/s", /*with_global_pass=*/false);
   ASSERT_TRUE(saved.ok) << saved.error;
-  EXPECT_EQ(saved.files.size(), 5u);
+  EXPECT_EQ(saved.files.size(), 8u);
   EXPECT_FALSE(saved.optimized);
   std::vector<std::string> written;
   std::string error;
   ASSERT_TRUE(plain.save(dir_ + "/p", &written, &error)) << error;
   EXPECT_EQ(bytesOf(dir_ + "/s.bt"), bytesOf(dir_ + "/p.bt"));
   EXPECT_EQ(bytesOf(dir_ + "/s.ot"), bytesOf(dir_ + "/p.ot"));
+  GridImage best, incremental;
+  ASSERT_TRUE(loadPgmYaml(dir_ + "/s.yaml", &best, &error)) << error;
+  ASSERT_TRUE(loadPgmYaml(dir_ + "/s_incremental.yaml", &incremental, &error)) << error;
+  EXPECT_EQ(best.cells, incremental.cells) << "without the pass, the best map is the incremental one";
 
   const std::uint64_t changes = session.changes();
   saved = session.save(dir_ + "/o", /*with_global_pass=*/true);
   ASSERT_TRUE(saved.ok) << saved.error;
   ASSERT_TRUE(saved.optimized);
   EXPECT_TRUE(saved.optimized->report.converged);
-  EXPECT_EQ(saved.files.size(), 9u);
-  EXPECT_NE(::access((dir_ + "/o_optimized.bt").c_str(), F_OK), -1);
+  EXPECT_EQ(saved.files.size(), 8u);
+  ASSERT_TRUE(loadPgmYaml(dir_ + "/o.yaml", &best, &error)) << error;
+  ASSERT_TRUE(loadPgmYaml(dir_ + "/o_incremental.yaml", &incremental, &error)) << error;
+  EXPECT_NE(best.cells, incremental.cells) << "with the pass, PREFIX.* is the pass's map";
+  GridImage incremental_before;
+  ASSERT_TRUE(loadPgmYaml(dir_ + "/s_incremental.yaml", &incremental_before, &error)) << error;
+  EXPECT_EQ(incremental.cells, incremental_before.cells) << "the same incremental slice as the save before";
   EXPECT_EQ(session.changes(), changes) << "write_optimized_into_map is off: the map is as it was";
 }
 
@@ -100,11 +111,14 @@ TEST_F(MappingSessionTest, ScansGoOnWhileASaveHoldsTheOctree) {
   ASSERT_TRUE(saved.ok) << saved.error;
   EXPECT_GT(inserted_during, 0u) << "no scan went in while the save ran: the test proved nothing";
   std::string error;
-  auto tree = loadTree(dir_ + "/m.ot", &error);
-  ASSERT_NE(tree, nullptr) << error;
-  SliceGrid saved_slice(*tree, MapperOptions().slice);
-  saved_slice.rebuild();
-  EXPECT_EQ(saved_slice.knownCells(), known_at_save) << "the save is of the map when it started";
+  // The incremental slice saved is the one of the scans inserted before the save began.
+  Mapper before;
+  for (std::size_t k = 0; k < 40; ++k) before.insert((*scans_)[k]);
+  EXPECT_EQ(before.slice().knownCells(), known_at_save);
+  GridImage saved_incremental;
+  ASSERT_TRUE(loadPgmYaml(dir_ + "/m_incremental.yaml", &saved_incremental, &error)) << error;
+  EXPECT_EQ(saved_incremental.cells, trinaryOf(gridImageOf(before.slice())).cells)
+      << "the save is of the map when it started";
   EXPECT_GT(session.withMapper([](const Mapper& m) { return m.slice().knownCells(); }), known_at_save);
   EXPECT_FALSE(session.withMapper([](const Mapper& m) { return m.lent(); })) << "the loan ended";
 }

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <set>
 
+#include "octo_slice_mapper/held_out_score.h"
 #include "octo_slice_mapper/map_evaluation.h"
 #include "octo_slice_mapper/map_io.h"
 #include "octo_slice_mapper/mapper.h"
@@ -58,15 +59,17 @@ TEST_F(OptimizedMapTest, OptimizedGridGoesIntoTheBandAndIntoTheBtFile) {
   std::string error;
   const std::size_t leaves_before = mapper_->tree().getNumLeafNodes();
   const GridImage incremental = gridImageOf(mapper_->slice());
-  ASSERT_TRUE(saveOptimizedSet(mapper_->tree(), mapper_->passBand(), optimized.grid, incremental, dir + "/m", &written, &error))
+  ASSERT_TRUE(saveBestMapSet(mapper_->tree(), mapper_->passBand(), &optimized.grid, incremental, dir + "/m", &written,
+                             &error))
       << error;
-  EXPECT_EQ(written, (std::vector<std::string>{dir + "/m_optimized.bt", dir + "/m_optimized.pgm",
-                                               dir + "/m_optimized.yaml", dir + "/m_optimized.png"}));
+  EXPECT_EQ(written, (std::vector<std::string>{dir + "/m.bt", dir + "/m.ot", dir + "/m.pgm", dir + "/m.yaml",
+                                               dir + "/m.png", dir + "/m_incremental.pgm", dir + "/m_incremental.yaml",
+                                               dir + "/m_incremental.png"}));
   EXPECT_EQ(mapper_->tree().getNumLeafNodes(), leaves_before) << "saving must not change the live tree";
 
   // The .bt, read back with OctoMap, has the optimized cells in the band: occupied where the grid
   // is 100, free where it is 0.
-  auto tree = loadTree(dir + "/m_optimized.bt", &error);
+  auto tree = loadTree(dir + "/m.bt", &error);
   ASSERT_TRUE(tree) << error;
   std::size_t checked = 0, agree = 0;
   const double z = 0.26;
@@ -83,7 +86,11 @@ TEST_F(OptimizedMapTest, OptimizedGridGoesIntoTheBandAndIntoTheBtFile) {
   ASSERT_GT(checked, 1000u);
   EXPECT_EQ(agree, checked);
   GridImage pgm;
-  ASSERT_TRUE(loadPgmYaml(dir + "/m_optimized.yaml", &pgm, &error)) << error;
+  ASSERT_TRUE(loadPgmYaml(dir + "/m.yaml", &pgm, &error)) << error;
+  // The incremental slice is saved beside it, as map_server reads it.
+  GridImage saved_incremental;
+  ASSERT_TRUE(loadPgmYaml(dir + "/m_incremental.yaml", &saved_incremental, &error)) << error;
+  EXPECT_EQ(saved_incremental.cells, trinaryOf(incremental).cells);
   // The 2D files are drawn in the incremental map's frame (which holds every cell the pass knows),
   // so that the two maps overlay cell for cell; each known cell keeps its state there.
   EXPECT_EQ(pgm.width, incremental.width);
@@ -217,15 +224,15 @@ TEST(OptimizedMapWithCameraTest, ObstaclesAboveTheLidarPlaneSurviveThePass) {
   const std::string dir = ::mkdtemp(tmpl);
   std::vector<std::string> written;
   std::string error;
-  ASSERT_TRUE(saveOptimizedSet(mapper.tree(), band, optimized.grid, gridImageOf(mapper.slice()), dir + "/m", &written,
-                               &error))
+  ASSERT_TRUE(saveBestMapSet(mapper.tree(), band, &optimized.grid, gridImageOf(mapper.slice()), dir + "/m", &written,
+                             &error))
       << error;
   GridImage saved;
-  ASSERT_TRUE(loadPgmYaml(dir + "/m_optimized.yaml", &saved, &error)) << error;
+  ASSERT_TRUE(loadPgmYaml(dir + "/m.yaml", &saved, &error)) << error;
   i = int(std::floor((top.x() - saved.origin_x) / saved.resolution)), j = int(std::floor((top.y() - saved.origin_y) / saved.resolution));
   EXPECT_GT(saved.at(i, j), 65) << "the saved optimized map shows the table top";
   octomap::OcTree bt(0.05);
-  ASSERT_TRUE(bt.readBinary(dir + "/m_optimized.bt"));
+  ASSERT_TRUE(bt.readBinary(dir + "/m.bt"));
   const octomap::OcTreeNode* in_bt = bt.search(top.x(), top.y(), top.z());
   EXPECT_TRUE(in_bt && bt.isNodeOccupied(in_bt)) << "the .bt with the pass's result kept the table top";
   std::system(("rm -rf " + dir).c_str());

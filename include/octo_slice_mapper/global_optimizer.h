@@ -48,6 +48,7 @@ struct OptimizeReport {
   std::size_t ray_cells = 0;  // (cell, beam) pairs in the index
   double build_seconds = 0.0, optimize_seconds = 0.0;
   bool index_extended = false;  // (optimizeScans) an earlier pass's index extended, not built anew
+  std::size_t released = 0;  // occupied cells no beam met first, freed (releaseUnsupported)
   std::size_t memory_bytes = 0;
 };
 
@@ -82,7 +83,14 @@ class GlobalOptimizer {
   // only for a strictly positive gain (ties don't flip), so the log-likelihood never decreases.
   // `first_sweep` (one flag per cell): the cells the first sweep looks at (default: all); the
   // later sweeps look at the cells on beams through a flipped cell, as always.
+  // At a local optimum the occupied cells no beam meets first are freed (releaseUnsupported) and
+  // the sweeps go on until a sweep flips nothing and nothing is left to free.
   OptimizeReport optimize(const ProgressFn& progress = {}, const std::vector<std::uint8_t>* first_sweep = nullptr);
+  // Frees every occupied cell that is no beam's first obstacle and would not gain from being
+  // occupied again; returns how many. No beam's record and not the log-likelihood change (a warm
+  // start's cells behind a wall's face are such cells; hill climbing from all-free makes none);
+  // a cell in front of a freed one may gain from a flip now (its beams are marked changed).
+  std::size_t releaseUnsupported();
   // optimize() ends before its next sweep once `*stop` is true (null: never): a background pass
   // being shut down does not finish a pass of many seconds first.
   void stopWhen(const std::atomic<bool>* stop) { stop_ = stop; }

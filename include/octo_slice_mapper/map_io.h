@@ -59,16 +59,18 @@ bool addPgmYaml(const GridImage& grid, const std::string& prefix, FileSet* files
                 const PgmOptions& options = {});
 bool addPng(const GridImage& grid, const std::string& path, FileSet* files, std::string* error);
 
-// Writes PREFIX.bt, .ot (from `tree`), .pgm, .yaml and .png (from `slice`) as one set: on any
-// failure none of them replaces the previous file. Appends the files written. Every file carries
-// the set's save id (a hash of the set's content; see readSaveId).
-bool saveMapSet(const octomap::OcTree& tree, const GridImage& slice, const std::string& prefix,
-                std::vector<std::string>* written, std::string* error);
+// Writes PREFIX.bt, .ot (from `tree`), .pgm, .yaml and .png (from `grid`) and, given
+// `incremental`, PREFIX_incremental.{pgm,yaml,png} from it, as one set: on any failure none of
+// them replaces the previous file. Appends the files written. Every file carries the set's save
+// id (a hash of the set's content; see readSaveId).
+bool saveMapSet(const octomap::OcTree& tree, const GridImage& grid, const std::string& prefix,
+                std::vector<std::string>* written, std::string* error, const GridImage* incremental = nullptr);
 
 // The save id a file of a set carries: 16 hex digits, "" if it has none (or cannot be read).
 std::string readSaveId(const std::string& path);
 
-// The files of PREFIX's set that exist (PREFIX.bt, .ot, .pgm, .yaml, .png), each with its save id.
+// The files of PREFIX's set that exist (PREFIX.bt, .ot, .pgm, .yaml, .png and
+// PREFIX_incremental.pgm, .yaml, .png), each with its save id.
 // Each file is renamed into place whole, but a kill between the renames of one save leaves files
 // of the new set beside the previous set's: then their ids differ.
 struct MapSetCheck {
@@ -77,7 +79,8 @@ struct MapSetCheck {
   std::string describe() const;  // which files come from which save, e.g. "map.bt map.ot are from save 1f…; map.png …"
 };
 MapSetCheck checkMapSet(const std::string& prefix);
-// PATH without the extension of a set's file (.bt, .ot, .pgm, .yaml, .png), or PATH unchanged.
+// PATH without the ending of a set's file (.bt, .ot, .pgm, .yaml, .png, _incremental.pgm, ...), or
+// PATH unchanged.
 std::string mapSetPrefixOf(const std::string& path);
 
 }  // namespace octo_slice_mapper

@@ -102,7 +102,8 @@ class Mapper {
   // Replaces the map by a saved .bt/.ot (resolution taken from the file). On failure the
   // current map is kept and false is returned with the reason.
   bool load(const std::string& path, std::string* error);
-  // Writes PREFIX.{bt,ot,pgm,yaml,png}.
+  // Writes PREFIX.{bt,ot,pgm,yaml,png} and PREFIX_incremental.{pgm,yaml,png}: both the incremental
+  // map here (MappingSession::save runs the global pass for PREFIX.*).
   bool save(const std::string& prefix, std::vector<std::string>* written, std::string* error);
 
   // The global pass over the kept scans (from all-free, or warm from the slice's max-likelihood

@@ -19,7 +19,8 @@
 namespace octo_slice_mapper {
 
 struct SessionOptions {
-  bool optimize_on_save = false;  // every save also runs the global pass, writing PREFIX_optimized.*
+  // Every save runs the global pass: PREFIX.* is its map, PREFIX_incremental.* the incremental one.
+  bool optimize_on_save = true;
   bool warm_start = true;         // the saves' global pass starts from the incremental map
   // The global pass's result is written into the octree's slice band (so .bt export carries it).
   bool write_optimized_into_map = true;
@@ -62,9 +63,11 @@ class MappingSession {
   InsertResult insertPrepared(PreparedCloud prepared, std::uint64_t map_generation, const SensorCloud& cloud,
                               double* waited_ms = nullptr);
 
-  // Writes PREFIX.{bt,ot,pgm,yaml,png}; `with_global_pass` (the node gives optimize_on_save)
-  // also PREFIX_optimized.*, and the result goes into the map when
-  // `write_optimized_into_map`. PREFIX is used as given (resolve it first, see save_path.h).
+  // Writes PREFIX.{bt,ot,pgm,yaml,png}, the best map, and PREFIX_incremental.{pgm,yaml,png}, the
+  // incremental slice, as one set (saveBestMapSet). With `with_global_pass` (the node gives
+  // optimize_on_save) and kept scans, the best map is the global pass's, and the result goes into
+  // the map when `write_optimized_into_map`; otherwise it is the incremental map. PREFIX is used
+  // as given (resolve it first, see save_path.h).
   SaveOutcome save(const std::string& prefix, bool with_global_pass, const ProgressFn& progress = {});
   // The global pass over the kept scans, applied to the map (if write_optimized_into_map);
   // nothing when no scans are kept.

@@ -69,12 +69,18 @@ GridImage withObstacles(const GridImage& grid, const GridImage& frame, const std
 // Returns the keys written.
 std::vector<octomap::OcTreeKey> writeGridIntoBand(const GridImage& grid, const PassBand& band, octomap::OcTree* tree);
 
-// Writes PREFIX_optimized.{bt,pgm,yaml,png}: the .bt is a copy of `tree` with `grid` written into
-// its band (the live tree is not changed); the 2D files show `grid` itself with the obstacles
-// beside the pass occupied, drawn in the frame of `incremental` (the incremental map saved beside
-// it), so that the two overlay cell for cell.
-bool saveOptimizedSet(const octomap::OcTree& tree, const PassBand& band, const GridImage& grid,
-                      const GridImage& incremental, const std::string& prefix, std::vector<std::string>* written,
-                      std::string* error);
+// The global pass's result as a save exports it: `grid` with the obstacles beside the pass
+// occupied, drawn in the frame of `incremental` (the incremental map saved beside it), so that
+// the two overlay cell for cell.
+GridImage exportedOptimized(const octomap::OcTree& tree, const PassBand& band, const GridImage& grid,
+                            const GridImage& incremental);
+
+// Writes the map set of a save (saveMapSet): with a global pass's `optimized` grid, PREFIX.* hold
+// it (the .bt and .ot a copy of `tree` with the grid written into its band, the live tree
+// unchanged; the 2D files exportedOptimized); without, the incremental map. PREFIX_incremental.*
+// hold `incremental` either way.
+bool saveBestMapSet(const octomap::OcTree& tree, const PassBand& band, const GridImage* optimized,
+                    const GridImage& incremental, const std::string& prefix, std::vector<std::string>* written,
+                    std::string* error);
 
 }  // namespace octo_slice_mapper

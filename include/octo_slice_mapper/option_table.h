@@ -31,6 +31,9 @@ bool evidenceCombiningFromName(const std::string& name, EvidenceCombining* out);
 const char* evidenceCombiningName(EvidenceCombining combining);
 // The field's value as text: numbers as %g, booleans true/false, enums by name.
 std::string optionValueText(const OptionField& field);
+// Sets the field from text as optionValueText writes it; false (the field unchanged) for text that
+// is not such a value.
+bool setOptionFromText(const OptionField& field, const std::string& text);
 // The command-line flag of an option: "--" and the name with '_' as '-'.
 std::string optionFlag(const char* name);
 

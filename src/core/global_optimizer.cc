@@ -464,8 +464,14 @@ OptimizeReport GlobalOptimizer::optimize(const ProgressFn& progress, const std::
     report.flips_per_sweep.push_back(flips);
     report.log_likelihood_per_sweep.push_back(log_likelihood_);
     if (flips == 0) {
-      report.converged = true;
-      break;
+      // A local optimum; its occupied cells that explain no beam go, and the cells on their
+      // beams get another look (a cell in front of one may now gain from a flip).
+      const std::size_t released = releaseUnsupported();
+      report.released += released;
+      if (released == 0) {
+        report.converged = true;
+        break;
+      }
     }
     std::fill(dirty.begin(), dirty.end(), 0);
     for (std::size_t b = 0; b < beams_.size(); ++b) {
@@ -481,6 +487,33 @@ OptimizeReport GlobalOptimizer::optimize(const ProgressFn& progress, const std::
   report.optimize_seconds = secondsSince(t0);
   report.memory_bytes = memoryBytes();
   return report;
+}
+
+std::size_t GlobalOptimizer::releaseUnsupported() {
+  // An occupied cell that no beam meets first explains no reading: every beam through it was
+  // stopped before it. Freeing it changes no beam's first obstacle, so the log-likelihood stays
+  // as it is. The hill climbing never makes such a cell (a flip needs a positive gain); a warm
+  // start brings them in: the incremental map's cells behind a wall's face, which would
+  // otherwise stay occupied for no reason (freeing them is a tie, and ties don't flip).
+  std::vector<std::uint8_t> supported(occupied_.size(), 0);
+  for (const Beam& b : beams_) {
+    if (b.first_cell >= 0) supported[static_cast<std::size_t>(b.first_cell)] = 1;
+  }
+  std::size_t released = 0;
+  for (std::size_t c = 0; c < occupied_.size(); ++c) {
+    if (!occupied_[c] || supported[c]) continue;
+    occupied_[c] = 0;
+    // A beam's first obstacle is the first occupied cell of its walk, while a flip compares
+    // distances to cell centres: at a grazing angle the two can disagree, and a cell the walk
+    // reaches after the first obstacle can still gain by stopping a beam. Such a cell stays.
+    if (flipDelta(c) > kMinGain) {
+      occupied_[c] = 1;
+      continue;
+    }
+    ++released;
+    for (std::uint64_t k = cell_beams_begin_[c]; k < cell_beams_begin_[c + 1]; ++k) beam_changed_[cell_beams_[k]] = 1;
+  }
+  return released;
 }
 
 std::size_t GlobalOptimizer::cellAt(double x, double y) const {

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <iterator>
 #include <sstream>
 #include <utility>
 #include <vector>
@@ -431,7 +432,9 @@ bool savePng(const GridImage& grid, const std::string& path, std::string* error)
 
 namespace {
 
-const char* const kSetExtensions[] = {".bt", ".ot", ".pgm", ".yaml", ".png"};
+// The endings of a set's files; mapSetPrefixOf tries them from the last (the longest) on.
+const char* const kSetExtensions[] = {".bt", ".ot", ".pgm", ".yaml", ".png", "_incremental.pgm", "_incremental.yaml",
+                                      "_incremental.png"};
 const char kSaveIdTag[] = "save_id";
 constexpr std::size_t kSaveIdLength = 16;  // hex digits of a 64-bit hash
 constexpr std::size_t kSaveIdSearch = 1024;  // every format puts it within its first bytes
@@ -485,10 +488,14 @@ void stampSaveId(std::pair<std::string, std::string>* file, const std::string& i
 }  // namespace
 
 bool saveMapSet(const octomap::OcTree& tree, const GridImage& grid, const std::string& prefix,
-                std::vector<std::string>* written, std::string* error) {
+                std::vector<std::string>* written, std::string* error, const GridImage* incremental) {
   FileSet files;
   if (!addBinaryTree(tree, prefix + ".bt", &files, error) || !addFullTree(tree, prefix + ".ot", &files, error) ||
       !addPgmYaml(grid, prefix, &files, error) || !addPng(grid, prefix + ".png", &files, error)) {
+    return false;
+  }
+  const std::string base = prefix + "_incremental";
+  if (incremental && (!addPgmYaml(*incremental, base, &files, error) || !addPng(*incremental, base + ".png", &files, error))) {
     return false;
   }
   const std::string id = saveIdOf(files);
@@ -535,8 +542,8 @@ std::string MapSetCheck::describe() const {
 }
 
 std::string mapSetPrefixOf(const std::string& path) {
-  for (const char* extension : kSetExtensions) {
-    if (endsWith(path, extension)) return path.substr(0, path.size() - std::strlen(extension));
+  for (auto it = std::rbegin(kSetExtensions); it != std::rend(kSetExtensions); ++it) {
+    if (endsWith(path, *it)) return path.substr(0, path.size() - std::strlen(*it));
   }
   return path;
 }

@@ -186,7 +186,8 @@ const octomap::OcTree& Mapper::tree() {
 }
 
 bool Mapper::save(const std::string& prefix, std::vector<std::string>* written, std::string* error) {
-  return saveMapSet(tree(), gridImageOf(*slice_), prefix, written, error);
+  const GridImage grid = gridImageOf(*slice_);
+  return saveMapSet(tree(), grid, prefix, written, error, &grid);
 }
 
 OptimizedMap Mapper::optimize(bool warm_start, const ProgressFn& progress) const {

@@ -101,16 +101,15 @@ SaveOutcome MappingSession::save(const std::string& prefix, bool with_global_pas
   SaveOutcome out;
   {
     Loan loan{this};
-    out.ok = saveMapSet(*snapshot.tree, snapshot.slice, prefix, &out.files, &out.error);
-    if (out.ok && with_global_pass && snapshot.scans.empty()) {
-      out.note = "global pass skipped: no kept scans (keep_scans is false, or nothing inserted)";
-    } else if (out.ok && with_global_pass) {
+    if (with_global_pass && snapshot.scans.empty()) {
+      out.note = "global pass skipped: no kept scans (keep_scans is false, or nothing inserted): the incremental map saved";
+    } else if (with_global_pass) {
       out.optimized = optimizeScans(snapshot.scans, pass_options, resolution,
                                     options_.warm_start ? &snapshot.slice : nullptr, progress);
-      const PassBand band = PassBand::of(snapshot.scans, *snapshot.tree, snapshot.band_lo, snapshot.band_hi);
-      out.ok = saveOptimizedSet(*snapshot.tree, band, out.optimized->grid,
-                                snapshot.slice, prefix, &out.files, &out.error);
     }
+    const PassBand band = PassBand::of(snapshot.scans, *snapshot.tree, snapshot.band_lo, snapshot.band_hi);
+    out.ok = saveBestMapSet(*snapshot.tree, band, out.optimized ? &out.optimized->grid : nullptr, snapshot.slice, prefix,
+                            &out.files, &out.error);
   }
   if (out.optimized) applyOptimized(out.optimized->grid);
   if (out.ok) {

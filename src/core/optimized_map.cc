@@ -136,21 +136,24 @@ std::vector<octomap::OcTreeKey> writeGridIntoBand(const GridImage& grid, const P
   return written;
 }
 
-bool saveOptimizedSet(const octomap::OcTree& tree, const PassBand& band, const GridImage& grid,
-                      const GridImage& incremental, const std::string& prefix, std::vector<std::string>* written,
-                      std::string* error) {
-  octomap::OcTree copy(tree);
-  writeGridIntoBand(grid, band, &copy);
-  const std::string base = prefix + "_optimized";
+GridImage exportedOptimized(const octomap::OcTree& tree, const PassBand& band, const GridImage& grid,
+                            const GridImage& incremental) {
   GridImage framed = inFrameOf(grid, incremental);
   for (const octomap::OcTreeKey& k : obstaclesBesidePass(tree, band)) {
     const int i = int(std::floor((tree.keyToCoord(k[0]) - framed.origin_x) / framed.resolution));
     const int j = int(std::floor((tree.keyToCoord(k[1]) - framed.origin_y) / framed.resolution));
     if (i >= 0 && j >= 0 && i < framed.width && j < framed.height) framed.cells[std::size_t(j) * framed.width + i] = 100;
   }
-  FileSet files;
-  return addBinaryTree(copy, base + ".bt", &files, error) && addPgmYaml(framed, base, &files, error) &&
-         addPng(framed, base + ".png", &files, error) && writeFilesAtomically(files, written, error);
+  return framed;
+}
+
+bool saveBestMapSet(const octomap::OcTree& tree, const PassBand& band, const GridImage* optimized,
+                    const GridImage& incremental, const std::string& prefix, std::vector<std::string>* written,
+                    std::string* error) {
+  if (!optimized) return saveMapSet(tree, incremental, prefix, written, error, &incremental);
+  octomap::OcTree copy(tree);
+  writeGridIntoBand(*optimized, band, &copy);
+  return saveMapSet(copy, exportedOptimized(tree, band, *optimized, incremental), prefix, written, error, &incremental);
 }
 
 }  // namespace octo_slice_mapper

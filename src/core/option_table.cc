@@ -1,6 +1,7 @@
 #include "octo_slice_mapper/option_table.h"
 
 #include <cstdio>
+#include <cstdlib>
 
 namespace octo_slice_mapper {
 
@@ -101,6 +102,44 @@ std::string optionValueText(const OptionField& field) {
     std::string operator()(const EvidenceCombining* v) const { return evidenceCombiningName(*v); }
   };
   return std::visit(Text(), field);
+}
+
+bool setOptionFromText(const OptionField& field, const std::string& text) {
+  struct Set {
+    const std::string& text;
+    bool operator()(double* v) const {
+      char* end = nullptr;
+      const double d = std::strtod(text.c_str(), &end);
+      if (text.empty() || *end != '\0') return false;
+      *v = d;
+      return true;
+    }
+    bool operator()(bool* v) const {
+      if (text != "true" && text != "false") return false;
+      *v = text == "true";
+      return true;
+    }
+    bool operator()(int* v) const {
+      char* end = nullptr;
+      const long n = std::strtol(text.c_str(), &end, 10);
+      if (text.empty() || *end != '\0') return false;
+      *v = static_cast<int>(n);
+      return true;
+    }
+    bool operator()(std::size_t* v) const {
+      char* end = nullptr;
+      const unsigned long long n = std::strtoull(text.c_str(), &end, 10);
+      if (text.empty() || text[0] == '-' || *end != '\0') return false;
+      *v = static_cast<std::size_t>(n);
+      return true;
+    }
+    bool operator()(std::string* v) const {
+      *v = text;
+      return true;
+    }
+    bool operator()(EvidenceCombining* v) const { return evidenceCombiningFromName(text, v); }
+  };
+  return std::visit(Set{text}, field);
 }
 
 std::string optionFlag(const char* name) {

@@ -106,7 +106,8 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
           std::optional<OnlineOptimizerInput> input = session_.onlinePassInput();
           if (input && input->options) input->options->threads = options_.online_optimize_threads;
           return input;
-        });
+        },
+        [this](const nav_msgs::OccupancyGrid& grid) { publisher_.publishBest(grid); });
   }
   cloud_pipeline_ = std::make_unique<CloudPipeline>(&session_, static_cast<unsigned>(std::max(0, options_.cloud_threads)),
                                                     /*max_pending=*/4);

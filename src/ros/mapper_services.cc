@@ -54,7 +54,9 @@ bool MapperServices::onSaveMap(SaveMap::Request& req, SaveMap::Response& res) {
   const bool with_pass = session_->options().optimize_on_save;
   if (with_pass) ROS_INFO("~save_map: with the global pass");
   const SaveOutcome saved = session_->save(prefix, with_pass, logProgress);
-  if (saved.optimized) publisher_->publishOptimized(saved.optimized->grid, session_->mapperOptions().slice.min_z);
+  if (saved.optimized) {
+    publisher_->publishOptimized(saved.optimized->grid, session_->mapperOptions().slice.min_z, online_ != nullptr);
+  }
   res.success = saved.ok;
   res.files = saved.files;
   if (saved.ok) {
@@ -78,7 +80,7 @@ bool MapperServices::onOptimize(Optimize::Request& req, Optimize::Response& res)
     res.message = "no scans kept (none inserted yet, or ~keep_scans is false)";
     return true;
   }
-  publisher_->publishOptimized(optimized->grid, session_->mapperOptions().slice.min_z);
+  publisher_->publishOptimized(optimized->grid, session_->mapperOptions().slice.min_z, online_ != nullptr);
   const OptimizeReport& r = optimized->report;
   ROS_INFO("%s", describe(r).c_str());
   res.success = true;
@@ -97,6 +99,7 @@ bool MapperServices::onOptimize(Optimize::Request& req, Optimize::Response& res)
 bool MapperServices::onReset(std_srvs::Empty::Request&, std_srvs::Empty::Response&) {
   session_->reset();
   if (online_) online_->forget();
+  publisher_->forgetBest(*session_, ros::Time::now());
   ROS_INFO("map reset");
   return true;
 }
@@ -117,6 +120,7 @@ bool MapperServices::onClearBox(ClearBox::Request& req, ClearBox::Response& res)
     return true;
   }
   if (online_) online_->forget();  // its last result still holds the box
+  publisher_->forgetBest(*session_, ros::Time::now());
   res.voxels_cleared = static_cast<std::uint32_t>(cleared.voxels);
   res.scans_dropped = static_cast<std::uint32_t>(cleared.scans);
   res.message = "cleared " + std::to_string(cleared.voxels) + " voxels; dropped " + std::to_string(cleared.scans) +

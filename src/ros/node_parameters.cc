@@ -50,7 +50,7 @@ const std::vector<OptionSpec<NodeOptions>>& nodeOptionTable() {
       {"save_on_shutdown", "", "prefix written when the node stops", [](O& o) -> OptionField { return &o.save_on_shutdown; }},
       {"maps_dir", "", "where ~save_map writes", [](O& o) -> OptionField { return &o.maps_dir; }},
       {"allow_any_path", "", "let ~save_map write outside maps_dir", [](O& o) -> OptionField { return &o.allow_any_path; }},
-      {"optimize_on_save", "", "every save also runs the global pass", [](O& o) -> OptionField { return &o.optimize_on_save; }},
+      {"optimize_on_save", "", "a save runs the global pass and writes its map as PREFIX.* (false: the incremental map)", [](O& o) -> OptionField { return &o.optimize_on_save; }},
       {"optimize_warm_start", "", "the pass starts from the incremental map",
        [](O& o) -> OptionField { return &o.optimize_warm_start; }},
       {"write_optimized_into_map", "", "the pass's result goes into the octree's slice band",

@@ -25,7 +25,7 @@ struct NodeOptions {
   std::string save_on_shutdown;      // prefix written when the node stops ("" = don't)
   std::string maps_dir;              // where ~save_map writes relative prefixes
   bool allow_any_path = false;       // let ~save_map write outside maps_dir
-  bool optimize_on_save = false;     // every save also runs the global pass: PREFIX_optimized.*
+  bool optimize_on_save = true;      // a save runs the global pass: PREFIX.* its map, PREFIX_incremental.* the slice
   bool optimize_warm_start = true;  // ... starting from the incremental map (false: all-free, the lab's start)
   bool write_optimized_into_map = true;  // the global pass's result goes into the octree's slice band
   bool online_optimize = true;           // keep running the global pass in the background: ~optimized_map

@@ -6,11 +6,13 @@ namespace octo_slice_mapper {
 namespace ros_adapter {
 
 OnlinePass::OnlinePass(ros::NodeHandle pnh, const GlobalOptimizerOptions& options, double resolution,
-                       double slice_min_z, std::string frame_id, double period, InputFn take_input)
+                       double slice_min_z, std::string frame_id, double period, InputFn take_input,
+                       ResultFn on_result)
     : optimizer_(options, resolution),
       slice_min_z_(slice_min_z),
       frame_id_(std::move(frame_id)),
-      take_input_(std::move(take_input)) {
+      take_input_(std::move(take_input)),
+      on_result_(std::move(on_result)) {
   publisher_ = pnh.advertise<nav_msgs::OccupancyGrid>("optimized_map", 1, true);
   ros::NodeHandle own(pnh);
   own.setCallbackQueue(&queue_);
@@ -45,6 +47,7 @@ void OnlinePass::tick(const ros::WallTimerEvent&) {
       stats_.passes++;
       stats_.last_pass_seconds = result->seconds;
       stats_.last_result_age = age;
+      if (on_result_) on_result_(grid);
     }
     publisher_.publish(grid);
     ROS_DEBUG("online global pass: %d sweeps, %.2f s, its map %.2f s behind the newest scan when published",

@@ -1,8 +1,9 @@
-// The background global pass, wired to ROS (issue 18): every ~online_optimize_period wall seconds,
-// when the map changed since the last pass got its input, the node's `take_input` copies the kept
-// scans and the slice (under the node's map lock) for the core OnlineOptimizer; each result goes
-// out on ~optimized_map (latched) and is what dynamic_map answers. Runs on its own callback queue
-// and thread, so neither copying nor publishing a large grid waits between scans.
+// The background global pass, wired to ROS: every ~online_optimize_period wall seconds, when the
+// map changed since the last pass got its input, the node's `take_input` copies the kept scans
+// and the slice (under the node's map lock) for the core OnlineOptimizer; each result goes out on
+// ~optimized_map (latched), to `on_result` (the node makes it the best map, on `map`) and is what
+// dynamic_map answers. Runs on its own callback queue and thread, so neither copying nor
+// publishing a large grid waits between scans.
 #pragma once
 
 #include <nav_msgs/OccupancyGrid.h>
@@ -31,8 +32,11 @@ class OnlinePass {
  public:
   // Returns the pass's input, or nothing when the map did not change since the last input.
   using InputFn = std::function<std::optional<OnlineOptimizerInput>()>;
+  // Called with each result, before forget() can return: a result of a map reset since is never
+  // passed on after the reset.
+  using ResultFn = std::function<void(const nav_msgs::OccupancyGrid&)>;
   OnlinePass(ros::NodeHandle pnh, const GlobalOptimizerOptions& options, double resolution, double slice_min_z,
-             std::string frame_id, double period, InputFn take_input);
+             std::string frame_id, double period, InputFn take_input, ResultFn on_result = {});
   ~OnlinePass();
 
   // The newest published result (false before the first).
@@ -48,6 +52,7 @@ class OnlinePass {
   double slice_min_z_;
   std::string frame_id_;
   InputFn take_input_;
+  ResultFn on_result_;
   ros::Publisher publisher_;
   ros::CallbackQueue queue_;
   std::unique_ptr<ros::AsyncSpinner> spinner_;
