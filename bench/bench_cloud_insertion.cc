@@ -1,4 +1,4 @@
-// bench_cloud_insertion: depth-camera frames into the octree (issue 22), against OctoMap's own
+// bench_cloud_insertion: depth-camera frames into the octree, against OctoMap's own
 // methods, in one process.
 //
 //   bench_cloud_insertion [--frames N] [--rounds R] [--resolution M] [--ours-only] [--scene desk|room]
@@ -12,7 +12,7 @@
 //         the map frame (toCoreCloud) -> Mapper::insert (full inverse model, one ray per
 //         end voxel, shared free space walked about once: cloud_shared_free_run 16);
 //         "whole rays": the same with every ray walked whole (cloud_shared_free_run 0); "per
-//         point": that with one ray per point too (the path before issue 22);
+//         point": that with one ray per point too (cloud_one_ray_per_voxel false);
 //   octomap insertPointCloud, and insertPointCloud(..., discretize = true) (one ray per end
 //         voxel), given the frame's finite points already in the map frame.
 //   ours, pipelined: the same frames through the node's CloudPipeline (two workers: frames
@@ -45,7 +45,7 @@
 #include "octo_slice_mapper/held_out_score.h"
 #include "octo_slice_mapper/map_io.h"
 #include "octo_slice_mapper/mapper.h"
-#include "octo_slice_mapper/memory_reuse.h"
+#include "core/internal/memory_reuse.h"
 #include "octo_slice_mapper/sim/depth_camera.h"
 #include "ros/point_cloud_conversion.h"
 
@@ -245,7 +245,7 @@ int main(int argc, char** argv) {
     osm::MapperOptions options;
     options.resolution = resolution;
     options.keep_scans = false;
-    options.slice.min_z = 0.05;  // the navigation band (issue 22): floor + margin to above the table
+    options.slice.min_z = 0.05;  // the navigation band: floor + margin to above the table
     options.slice.max_z = 0.80;
     osm::Mapper mapper(options);
     osm::SensorCloud cloud;
@@ -266,7 +266,7 @@ int main(int argc, char** argv) {
     // OctoMap's frames at a fine grain: each OctoMap frame (into that method's tree of the round)
     // is timed right beside a whole pipelined pass over the frames (into a fresh session), the
     // order turned every pair, and a ratio is that frame's time over the pass's time per frame.
-    // The host's speed changes within a second (session 46: OctoMap's frames of one round 140 and
+    // The host's speed changes within a second (OctoMap's frames of one round 140 and
     // 220 ms apart), so a ratio of a 50 ms pass to 2 s of OctoMap's frames wandered by +-20 %.
     std::vector<double> pipelined, plain, discrete, pipe_vs_plain, pipe_vs_discrete;
     std::vector<double> round_vs_plain, round_vs_discrete;  // per round: median of its pairs

@@ -8,7 +8,7 @@
 // (VmHWM, reset before each run through /proc/self/clear_refs; it includes the loaded log and
 // the octree). Then the background pass as the node runs it, with one thread and every core.
 // Map quality on held-out scans: bench_map_quality.
-// Targets (issue 3): Intel <= 10 s, Freiburg 079 <= 60 s, peak memory <= 1 GB.
+// Targets: Intel <= 10 s, Freiburg 079 <= 60 s, peak memory <= 1 GB.
 #include <algorithm>
 #include <chrono>
 #include <optional>
@@ -21,7 +21,7 @@
 
 #include "bench_common.h"
 #include "octo_slice_mapper/carmen_log.h"
-#include "octo_slice_mapper/map_evaluation.h"
+#include "core/internal/map_evaluation.h"
 #include "octo_slice_mapper/mapper.h"
 #include "octo_slice_mapper/online_optimizer.h"
 

@@ -1,5 +1,5 @@
 // bench_insertion_methods: ms per scan of the ways to put the same 2D lidar scans into a map, in
-// one process, on the shared CARMEN datasets (issue 4):
+// one process, on the shared CARMEN datasets:
 //   (a) octomap_server's method: free / occupied KeySets from computeRayKeys, then updateNode
 //       with hit 0.7 / miss 0.4 per key;
 //   (b) OcTree::insertPointCloud;
@@ -41,8 +41,8 @@
 #include "bench_common.h"
 #include "octo_slice_mapper/carmen_log.h"
 #include "octo_slice_mapper/mapper.h"
-#include "octo_slice_mapper/scan_evidence.h"
-#include "octo_slice_mapper/scan_inserter_inspection.h"
+#include "octo_slice_mapper/internal/scan_evidence.h"
+#include "core/internal/scan_inserter_inspection.h"
 
 namespace osm = octo_slice_mapper;
 using Clock = std::chrono::steady_clock;

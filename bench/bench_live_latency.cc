@@ -11,7 +11,7 @@
 // behind the newest scan at most and at the end.
 // With ~camera_rate > 0 (camera:=true in live_latency.launch) a Kinect-class depth camera runs
 // beside the lidar: organized 640 x 480 PointCloud2 frames on camera_depth_optical_frame at that
-// rate (issue 22), answered and measured like the scans. Its frames are rendered before the clock
+// rate, answered and measured like the scans. Its frames are rendered before the clock
 // starts (a second's worth along the tour, then again: each frame's rays cost the mapper what a
 // live one would, though after the first second they no longer fit the robot's pose).
 // Both subscriptions ask for TCP_NODELAY, as a latency-minded client should: without it the

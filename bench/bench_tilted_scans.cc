@@ -1,4 +1,4 @@
-// bench_tilted_scans: what a real robot's tf does to insertion speed (issue 21). The same
+// bench_tilted_scans: what a real robot's tf does to insertion speed. The same
 // simulated session mapped twice in one process: once with level scans (the fast path), once
 // with each scan through a tf chain built like a real robot's: odom -> base_link with the
 // session's x, y, yaw plus IMU-style roll and pitch noise (sigma 0.6 deg, at most 1.1 deg) and a
@@ -13,13 +13,12 @@
 //
 // --interleave K (default 32): the two sessions are mapped side by side, K scans of one, then K
 // of the other (two mappers); 0 maps one whole session after the other. In turns, the host's
-// changing speed moves both alike: on session 44's host one run's repetitions gave ratios within
-// 0.01-0.07 of each other, where whole sessions gave 0.8 to 1.9. (K = 8, 32 and 200 gave the same
-// ratios.)
+// changing speed moves both alike: on these virtual machines the speed changes within a run by
+// more than the difference measured, and turns keep the two sessions' shares of it equal.
 //
 // --cold-mb MB: between two scans (not timed), MB of other memory is written and read, as the
 // other threads and processes of a live node do between a lidar's scans (the background pass,
-// the bag player, roscore): each scan then starts with cold caches, as in the node (issue 21).
+// the bag player, roscore): each scan then starts with cold caches, as in the node.
 // --pause-ms MS: the thread sleeps MS between two scans (not timed), as the node's scan thread
 // waits for the next scan: on this 2-core virtual machine a core left idle for a few
 // milliseconds comes back slower for the next scan (likely its caches taken by other work).
@@ -233,7 +232,7 @@ int main(int argc, char** argv) {
   std::size_t level_ok = 0, tilted_ok = 0;
   double level_updates = 0.0, tilted_updates = 0.0, level_changed = 0.0, tilted_changed = 0.0;
   // Each repetition times both sessions, the order turned every repetition, and gives a ratio of
-  // its own: on these virtual machines the speed moves within a run (session 43: one run's
+  // its own: on these virtual machines the speed moves within a run (one run's
   // repetitions gave tilted / level from 0.86 to 1.70), and timings close in time compare better.
   std::vector<double> ratios;
   for (int r = 0; r < repeats; ++r) {

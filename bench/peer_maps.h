@@ -1,4 +1,4 @@
-// The two maps this project's must beat (issue 18), built from the same scans:
+// The two maps this project's must beat, built from the same scans:
 //   - octomap_server's method: per scan, free / occupied KeySets from computeRayKeys (occupied
 //     wins), updateNode with hit 0.7 / miss 0.4, clamping 0.12 / 0.97; its projected 2D map
 //     (a band column is occupied if any of its voxels is, else free if any is known);

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Measures how long a scan takes to show in the optimized map of a running mapper_node (issue 18).
+"""Measures how long a scan takes to show in the optimized map of a running mapper_node.
 
     bench/record_online_pass.py OUT.csv [SECONDS]
 

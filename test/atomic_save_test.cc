@@ -128,7 +128,7 @@ TEST_F(AtomicSaveTest, FullDiskFailsTheSaveAndKeepsThePreviousMap) {
 }  // namespace
 
 // What a killed save leaves (PATH.tmp-XXXXXX) goes at the next save of that path, and all of a
-// folder's at once (the node does that to maps_dir at start-up); other files stay (issue 19).
+// folder's at once (the node does that to maps_dir at start-up); other files stay.
 TEST_F(AtomicSaveTest, TemporariesAKilledSaveLeftAreRemoved) {
   for (const char* name : {"m.ot.tmp-AbC123", "m.pgm.tmp-xyz789", "other.bt.tmp-111111", "m.ot.tmp-toolong7", "m.ot"}) {
     std::string error;
@@ -147,7 +147,7 @@ TEST_F(AtomicSaveTest, TemporariesAKilledSaveLeftAreRemoved) {
 }
 
 // Every file of a set carries its save id; a set whose files come from two saves is reported
-// (issue 19: a kill between the renames left a new .bt/.ot/.pgm/.yaml beside the old .png).
+// a kill between the renames left a new .bt/.ot/.pgm/.yaml beside the old .png).
 TEST_F(AtomicSaveTest, AMixedSetIsDetected) {
   const std::string a = dir_ + "/a", b = dir_ + "/b";
   std::string error;

@@ -1,4 +1,4 @@
-// Depth-camera clouds into the octree (issue 22): the simulated camera, the fast path against a
+// Depth-camera clouds into the octree: the simulated camera, the fast path against a
 // straightforward reference of the same model, and the cloud rules (floor, range, bad points).
 #include <gtest/gtest.h>
 
@@ -9,8 +9,8 @@
 #include <unordered_map>
 
 #include "octo_slice_mapper/mapper.h"
-#include "octo_slice_mapper/scan_inserter.h"
-#include "octo_slice_mapper/scan_inserter_inspection.h"
+#include "octo_slice_mapper/internal/scan_inserter.h"
+#include "core/internal/scan_inserter_inspection.h"
 #include "octo_slice_mapper/sim/depth_camera.h"
 #include "test_helpers.h"
 

@@ -1,4 +1,4 @@
-// Depth frames prepared on several threads and applied in order (CloudPipeline, issue 22): the
+// Depth frames prepared on several threads and applied in order (CloudPipeline): the
 // map is the one of inserting the same scans and clouds one by one, whatever the threads do.
 #include "octo_slice_mapper/cloud_pipeline.h"
 

@@ -1,5 +1,5 @@
 // The node's counters as /diagnostics and the session summary give them, and which skips get a
-// log line (issue 19: one throttle per reason; the summary agreeing with /diagnostics after a
+// log line one throttle per reason; the summary agreeing with /diagnostics after a
 // reset).
 #include "ros/diagnostics.h"
 

@@ -1,4 +1,4 @@
-#include "octo_slice_mapper/end_voxel_grouping.h"
+#include "core/internal/end_voxel_grouping.h"
 
 #include <gtest/gtest.h>
 #include <octomap/OcTree.h>

@@ -7,7 +7,7 @@
 #include <limits>
 #include <random>
 
-#include "octo_slice_mapper/map_evaluation.h"
+#include "core/internal/map_evaluation.h"
 #include "octo_slice_mapper/mapper.h"
 #include "octo_slice_mapper/sim/session.h"
 
@@ -263,8 +263,8 @@ TEST(GlobalOptimizer, SimulatedSessionIsNotWorseThanTheIncrementalMap) {
   EXPECT_TRUE(warm.converged);
 }
 
-// The global pass reads readings by the insertion's rules (issue 20's bug: it used the default
-// rules whatever the insertion was told): with REP 117 on, +inf beams clear as no-returns in both.
+// The global pass reads readings by the insertion's rules, not the default ones whatever the
+// insertion was told: with REP 117 on, +inf beams clear as no-returns in both.
 TEST(GlobalOptimizer, ReadsInfinityAsTheInsertionDoes) {
   Scan scan;
   scan.sensor_pose.translation() = Eigen::Vector3d(0, 0, 0.26);

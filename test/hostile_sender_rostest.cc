@@ -1,4 +1,4 @@
-// Hostile messages and requests through a real roscore (issue 19): the node stays up, counts
+// Hostile messages and requests through a real roscore: the node stays up, counts
 // each one under its reason, and the map it saves is byte for byte the map of the valid messages
 // alone (a second node that gets only those).
 #include <diagnostic_msgs/DiagnosticArray.h>
@@ -17,7 +17,7 @@
 #include <string>
 
 #include "octo_slice_mapper/SaveMap.h"
-#include "octo_slice_mapper/atomic_file.h"
+#include "octo_slice_mapper/internal/atomic_file.h"
 #include "ros_test_support.h"
 
 namespace {

@@ -1,4 +1,4 @@
-#include "octo_slice_mapper/key_box.h"
+#include "octo_slice_mapper/internal/key_box.h"
 
 #include <gtest/gtest.h>
 

@@ -1,7 +1,7 @@
 // The insertion fast path (level scans into the layer cache, flushed later) against the
 // straightforward reference: per scan, each voxel's evidence combined in a std::map, then one
 // OcTree::updateNode per voxel. Same keys, same log-odds, same nodes.
-#include "octo_slice_mapper/layer_cache.h"
+#include "octo_slice_mapper/internal/layer_cache.h"
 
 #include <gtest/gtest.h>
 
@@ -13,8 +13,8 @@
 
 #include "octo_slice_mapper/map_io.h"
 #include "octo_slice_mapper/mapper.h"
-#include "octo_slice_mapper/scan_inserter.h"
-#include "octo_slice_mapper/scan_inserter_inspection.h"
+#include "octo_slice_mapper/internal/scan_inserter.h"
+#include "core/internal/scan_inserter_inspection.h"
 #include "octo_slice_mapper/sim/session.h"
 #include "test_helpers.h"
 

@@ -11,7 +11,7 @@
 #include <map>
 #include <set>
 
-#include "octo_slice_mapper/atomic_file.h"
+#include "octo_slice_mapper/internal/atomic_file.h"
 #include "octo_slice_mapper/mapper.h"
 #include "test_helpers.h"
 
@@ -228,7 +228,7 @@ TEST_F(MapIoTest, CorruptOrWrongFilesAreRefusedWithAReason) {
     EXPECT_EQ(loadTree(dir_ + "/" + name, &error), nullptr) << name;
     EXPECT_FALSE(error.empty()) << name;
   }
-  // A truncated .ot: OctoMap's reader returns a tree from what is there (issue 19), it is refused.
+  // A truncated .ot: OctoMap's reader returns a tree from what is there, it is refused.
   ASSERT_TRUE(saveFullTree(mapper_.tree(), dir_ + "/good.ot", &error));
   ASSERT_TRUE(readFile(dir_ + "/good.ot", &bytes, &error));
   ASSERT_NE(loadTree(dir_ + "/good.ot", &error), nullptr) << error;

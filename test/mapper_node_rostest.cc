@@ -178,7 +178,7 @@ TEST_F(MapperNodeTest, ResetClearsTheMap) {
 }
 
 // ~clear_box makes a box unknown again, as octomap_server's clear_bbx; the map outside it stays
-// (issue 21).
+//.
 TEST_F(MapperNodeTest, ClearBoxMakesTheBoxUnknown) {
   publishWall(kWallAhead, 3);
   ASSERT_TRUE(waitFor([this] { return cellAt(2.11, 0.0) > 50 && cellAt(1.0, 0.0) >= 0; }, 20.0));
@@ -198,7 +198,7 @@ TEST_F(MapperNodeTest, ClearBoxMakesTheBoxUnknown) {
 
 // dynamic_reconfigure: moving the slice band above the laser empties the slice (the voxels are
 // still in the octree), moving it back shows the wall again; an impossible model is refused and
-// the session maps on (issue 21).
+// the session maps on.
 TEST_F(MapperNodeTest, DynamicReconfigureMovesTheBandAndChangesTheModel) {
   publishWall(kWallAhead, 3);
   ASSERT_TRUE(waitFor([this] { return cellAt(2.11, 0.0) > 50; }, 20.0));
@@ -393,7 +393,7 @@ TEST_F(MapperNodeTest, CloudsWaitingForTfTimeOutToo) {
 }
 
 // Clouds whose layout declares more than they hold are skipped and counted, and the node maps on
-// (issue 19: the first one crashed it inside pcl::fromROSMsg); a well-formed cloud is inserted.
+// the first one crashed it inside pcl::fromROSMsg); a well-formed cloud is inserted.
 TEST_F(MapperNodeTest, MalformedCloudsAreCountedAndTheNodeMapsOn) {
   ros::Publisher cloud_pub = nh_.advertise<sensor_msgs::PointCloud2>("cloud_in", 5);
   ASSERT_TRUE(waitFor([&cloud_pub] { return cloud_pub.getNumSubscribers() >= 1; }, 20.0));
@@ -432,7 +432,7 @@ TEST_F(MapperNodeTest, MalformedCloudsAreCountedAndTheNodeMapsOn) {
 }
 
 // A scan stamped 0 would be placed at the latest pose (tf2 reads 0 as "latest"): it is skipped
-// as zero_stamp instead, and not mistaken for a time jump (issue 19).
+// as zero_stamp instead, and not mistaken for a time jump.
 TEST_F(MapperNodeTest, AScanStampedZeroIsSkippedNotPlacedAtTheLatestPose) {
   ASSERT_TRUE(waitFor([this] { return diagnostic("scans_received") >= 0; }, 10.0)) << "no /diagnostics";
   const double zero_before = std::max(0.0, diagnostic("skipped_zero_stamp"));

@@ -231,7 +231,7 @@ TEST_F(MappingSessionTest, OnlinePassInputHoldsTheStoresScansWhateverChangedThem
 namespace {
 
 // ~clear_box: the voxels inside the box are unknown again, the slice follows, those outside stay,
-// and kept scans whose beams crossed the box are dropped (issue 21).
+// and kept scans whose beams crossed the box are dropped.
 TEST_F(MappingSessionTest, ClearBoxMakesTheBoxUnknownAndDropsTheScansThatSawIt) {
   MappingSession session{MapperOptions(), SessionOptions()};
   insertAll(&session, 0, scans_->size());

@@ -2,7 +2,7 @@
 // back without page faults, where glibc's adaptive default gives them back every frame. Each case
 // runs in a fresh process (this binary again, told by an environment variable), since the
 // setting is process-wide and what glibc does by default depends on what the process freed before.
-#include "octo_slice_mapper/memory_reuse.h"
+#include "core/internal/memory_reuse.h"
 
 #include <gtest/gtest.h>
 

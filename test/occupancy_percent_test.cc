@@ -1,7 +1,7 @@
 // The table gives lround(100 * probability(l)) for every float: checked on every float near each
 // step of the percent and near each bucket edge, on a stride through all floats in [-9, 9], and at
 // the ends.
-#include "octo_slice_mapper/occupancy_percent.h"
+#include "core/internal/occupancy_percent.h"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "octo_slice_mapper/octree_batch_update.h"
+#include "octo_slice_mapper/internal/octree_batch_update.h"
 
 #include <gtest/gtest.h>
 
@@ -7,8 +7,8 @@
 #include <algorithm>
 #include <random>
 
-#include "octo_slice_mapper/scan_inserter.h"
-#include "octo_slice_mapper/scan_inserter_inspection.h"
+#include "octo_slice_mapper/internal/scan_inserter.h"
+#include "core/internal/scan_inserter_inspection.h"
 #include "octo_slice_mapper/sim/session.h"
 #include "test_helpers.h"
 
@@ -217,7 +217,7 @@ TEST(OctreeBatchUpdate, SimulatedScansMatchTheReference) {
   expectSameTree(fast, reference);
 }
 
-// A scan tilted by a degree (real odometry's pitch and roll, issue 21) reaches a few layers: its
+// A scan tilted by a degree (real odometry's pitch and roll) reaches a few layers: its
 // updates go through the layer cache, and the octree is leaf for leaf the reference's. A scan
 // tilted so far that it spans more than kMaxCachedLayersPerScan layers goes into the octree
 // directly, and is right too.

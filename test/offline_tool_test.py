@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""octo_slice_map on hostile CARMEN logs (issue 19, point 7): a pose the octree cannot hold
+"""octo_slice_map on hostile CARMEN logs: a pose the octree cannot hold
 (finite, 1e30) and a NaN pose are skipped, counted and reported with their line numbers, and the
 map is the one the other lines make.
 

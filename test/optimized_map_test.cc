@@ -8,7 +8,7 @@
 #include <set>
 
 #include "octo_slice_mapper/held_out_score.h"
-#include "octo_slice_mapper/map_evaluation.h"
+#include "core/internal/map_evaluation.h"
 #include "octo_slice_mapper/map_io.h"
 #include "octo_slice_mapper/mapper.h"
 #include "octo_slice_mapper/sim/depth_camera.h"
@@ -197,8 +197,8 @@ TEST(OptimizedMapWithCameraTest, ObstaclesAboveTheLidarPlaneSurviveThePass) {
   int i = int(std::floor((top.x() - optimized.grid.origin_x) / 0.05)), j = int(std::floor((top.y() - optimized.grid.origin_y) / 0.05));
   ASSERT_LT(optimized.grid.at(i, j), 50) << "the lidar's beams pass under the table: the pass alone calls it free";
   // What ~optimized_map shows: the pass's grid with the cells beside it occupied: the table top,
-  // and exactly the cells the saved optimized set marks (one rule for both; before session 28 the
-  // online map left out columns whose lidar layer was occupied too, such as the table's legs).
+  // and exactly the cells the saved optimized set marks (one rule for both, also for columns whose
+  // lidar layer is occupied too, such as the table's legs).
   const GridImage frame = gridImageOf(mapper.slice());
   const std::vector<std::size_t> beside = mapper.cellsBesidePass(frame);
   const auto cellOf = [&](double x, double y) {

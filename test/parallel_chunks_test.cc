@@ -1,6 +1,6 @@
 // Work split over the cores: every index exactly once, and results kept per chunk or piece the
 // same as a serial loop's, on any number of workers.
-#include "octo_slice_mapper/parallel_chunks.h"
+#include "core/internal/parallel_chunks.h"
 
 #include <gtest/gtest.h>
 

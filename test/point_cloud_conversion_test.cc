@@ -1,4 +1,4 @@
-// PointCloud2 layouts a sender can get wrong are refused before any byte is read (issue 19), and
+// PointCloud2 layouts a sender can get wrong are refused before any byte is read, and
 // a well-formed cloud's points come out in the map frame, the non-finite ones left out and counted.
 #include "ros/point_cloud_conversion.h"
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""A real robot's recording through replay.launch (issue 21): nothing lost, nothing misread.
+"""A real robot's recording through replay.launch: nothing lost, nothing misread.
 
 simulate_session --real-robot writes the office tour as a real TurtleBot records it: a REP 117
 driver (+inf = no return, -inf = too close, NaN), a lidar mount yawed 20 deg and 3 cm to the side,
@@ -113,10 +113,10 @@ def cases(bin_dir, work):
     yield ("no time jump seen in late or early scans", c.get("time_jumps_back") == 0, summary.strip())
     yield ("no scan missed (no gap in header.seq)", c.get("scans_missed") == 0, summary.strip())
     # The four scans recorded after the one that follows them leave gaps that they fill when they
-    # come: no warning says they never reached the mapper (until session 47 three did).
+    # come: no warning says they never reached the mapper.
     said_missed = [l for l in open(launch_log).read().splitlines() if "never reached the mapper" in l]
     yield ("no warning of missed scans for scans that came late", not said_missed, "; ".join(said_missed))
-    # The README: +inf is a no-return, -inf "too close" is counted as `inf` (no update), NaN as `nan`.
+    # doc/bad-input.md: +inf is a no-return, -inf "too close" is counted as `inf` (no update), NaN as `nan`.
     yield ("+inf read as no-return, none invalid",
            c.get("no_return") == wrote["plus_inf"] and wrote["plus_inf"] > 1000,
            f"the bag's scans after tf hold {wrote['plus_inf']} +inf: {summary.strip()}")
@@ -132,7 +132,7 @@ def cases(bin_dir, work):
     # Every scan is inserted: ROS's scan queue (scan_queue_size, 200: 1 s at 20x) outlasts a stall;
     # at 50 it dropped 0-3 scans silently, out of the node's sight. tf2_ros's listener queue (100
     # messages, 0.1 s at 20x) dropped tf in a stall, and when that was the bag's first transforms,
-    # 1-4 more scans found none (1 run in 3, session 39): the node's own listener (tf_listener.h)
+    # 1-4 more scans found none (1 run in 3): the node's own listener (tf_listener.h)
     # queues 2000. The map is not compared with octo_slice_map's (while tf was dropped, poses
     # interpolated across the gaps moved a few cells; not compared since).
     def stalled_replay(name, params_file):

@@ -1,5 +1,5 @@
-#include "octo_slice_mapper/save_path.h"
-#include "octo_slice_mapper/atomic_file.h"
+#include "core/internal/save_path.h"
+#include "octo_slice_mapper/internal/atomic_file.h"
 
 #include <gtest/gtest.h>
 #include <sys/stat.h>
@@ -49,7 +49,7 @@ TEST_F(SavePathTest, AllowAnyPathLiftsTheFence) {
   EXPECT_EQ(resolved, root_ + "/elsewhere/x");
 }
 
-// A newline in a prefix made a .yaml no YAML parser reads (issue 19): control characters are refused.
+// A newline in a prefix made a .yaml no YAML parser reads: control characters are refused.
 TEST_F(SavePathTest, ControlCharactersAreRefused) {
   std::string resolved, error;
   for (const char* prefix : {"run\n1", "run\r", "tab\there", "bell\a"}) {
@@ -60,21 +60,21 @@ TEST_F(SavePathTest, ControlCharactersAreRefused) {
   EXPECT_TRUE(resolveSavePrefix(maps_, "ünïcode run", false, &resolved, &error)) << error;
 }
 
-// The limit is the final names' (NAME.yaml within 255 characters), not the temporary files'
-// (issue 19: a 250-character prefix was refused because NAME.yaml.tmp-XXXXXX passed 255).
+// The limit is the final names' (NAME_incremental.yaml within 255 characters), not the temporary
+// files' (NAME_incremental.yaml.tmp-XXXXXX is cut to fit).
 TEST_F(SavePathTest, PrefixLengthLimitIsTheFinalNames) {
   std::string resolved, error;
-  EXPECT_TRUE(resolveSavePrefix(maps_, std::string(250, 'p'), false, &resolved, &error)) << error;
-  EXPECT_FALSE(resolveSavePrefix(maps_, std::string(251, 'p'), false, &resolved, &error));
-  EXPECT_NE(error.find("at most 250"), std::string::npos) << error;
-  ASSERT_TRUE(resolveSavePrefix(maps_, std::string(250, 'p'), false, &resolved, &error));
-  ASSERT_TRUE(writeFileAtomically(resolved + ".yaml", "image: x.pgm\n", &error)) << error;
+  EXPECT_TRUE(resolveSavePrefix(maps_, std::string(238, 'p'), false, &resolved, &error)) << error;
+  EXPECT_FALSE(resolveSavePrefix(maps_, std::string(239, 'p'), false, &resolved, &error));
+  EXPECT_NE(error.find("at most 238"), std::string::npos) << error;
+  ASSERT_TRUE(resolveSavePrefix(maps_, std::string(238, 'p'), false, &resolved, &error));
+  ASSERT_TRUE(writeFileAtomically(resolved + "_incremental.yaml", "image: x.pgm\n", &error)) << error;
   std::string back;
-  ASSERT_TRUE(readFile(resolved + ".yaml", &back, &error)) << error;
+  ASSERT_TRUE(readFile(resolved + "_incremental.yaml", &back, &error)) << error;
   EXPECT_EQ(back, "image: x.pgm\n");
   // A killed save's temporary of that name (its stem cut to fit) goes at the next save.
-  const std::string stale = maps_ + "/" + std::string(244, 'p') + ".tmp-AbC123";
+  const std::string stale = maps_ + "/" + (std::string(238, 'p') + "_incremental.yaml").substr(0, 244) + ".tmp-AbC123";
   ASSERT_TRUE(writeFileAtomically(stale, "left", &error)) << error;
-  EXPECT_EQ(removeStaleTemporaries(resolved + ".yaml"), 1u);
+  EXPECT_EQ(removeStaleTemporaries(resolved + "_incremental.yaml"), 1u);
   EXPECT_NE(::access(stale.c_str(), F_OK), 0);
 }

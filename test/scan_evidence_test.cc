@@ -1,5 +1,5 @@
 // ScanEvidence: per-scan combining of evidence against the rule written out with two floats.
-#include "octo_slice_mapper/scan_evidence.h"
+#include "octo_slice_mapper/internal/scan_evidence.h"
 
 #include <gtest/gtest.h>
 
@@ -8,7 +8,7 @@
 #include <random>
 #include <tuple>
 
-#include "octo_slice_mapper/octree_batch_update.h"
+#include "octo_slice_mapper/internal/octree_batch_update.h"
 
 using namespace octo_slice_mapper;
 

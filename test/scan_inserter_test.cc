@@ -1,5 +1,5 @@
-#include "octo_slice_mapper/scan_inserter.h"
-#include "octo_slice_mapper/scan_inserter_inspection.h"
+#include "octo_slice_mapper/internal/scan_inserter.h"
+#include "core/internal/scan_inserter_inspection.h"
 
 #include <gtest/gtest.h>
 
@@ -240,7 +240,7 @@ TEST(ScanInserter, CoordinatesOutsideTheTreeAreDroppedSafely) {
   Eigen::Isometry3d far_away = Eigen::Isometry3d::Identity();
   far_away.translation() = Eigen::Vector3d(-1e308, 0.0, 0.26);  // finite, so the header check passes
   EXPECT_FALSE(inserter.insert(makeScan(far_away, -1.0f, 0.01f, std::vector<float>(201, 2.0f))).ok())
-      << "refused with a reason (issue 19)";
+      << "refused with a reason";
   inserter.flush();
   EXPECT_EQ(tree.size(), 0u) << "a sensor outside the tree adds nothing";
   // A reading of 3e38 m under range_max = FLT_MAX: that beam leaves the tree and is dropped; its
@@ -251,7 +251,7 @@ TEST(ScanInserter, CoordinatesOutsideTheTreeAreDroppedSafely) {
       inserter.insert(makeScan(laserPoseOnRobot(0, 0, 0), -1.0f, 0.01f, ranges, 0.02f, std::numeric_limits<float>::max()));
   inserter.flush();
   ASSERT_TRUE(result.ok());
-  EXPECT_EQ(result.beams_outside_octree, 1u) << "dropped, and counted (issue 20)";
+  EXPECT_EQ(result.beams_outside_octree, 1u) << "dropped, and counted";
   EXPECT_EQ(result.readings[ReadingKind::kHit], 201u);
   const octomap::OcTreeNode* wall = tree.search(2.10, 0.0, 0.26);
   ASSERT_NE(wall, nullptr);
@@ -302,7 +302,7 @@ TEST(ScanInserter, FreeValleyShortcutsGiveWhatTheModelGives) {
 
 // A beam that runs along a wall, 3 cm from the centres of the wall's voxels but never entering
 // them, leaves the wall alone: only the voxels the axis crosses are judged on the axis (judged by
-// their part nearest the axis, as before issue 18, this beam cleared the wall it grazed).
+// their part nearest the axis, this beam would clear the wall it grazes).
 TEST(ScanInserter, ABeamGrazingAWallClearsOnlyTheVoxelsItCrosses) {
   octomap::OcTree tree(0.05);
   useMapperThresholds(MapperOptions{}, &tree);
@@ -324,7 +324,7 @@ TEST(ScanInserter, ABeamGrazingAWallClearsOnlyTheVoxelsItCrosses) {
   EXPECT_NEAR(crossed->getLogOdds(), inserter.model().logOddsFree(), 1e-4) << "the voxels it crosses are free";
 }
 
-// A sensor the octree cannot hold (a CARMEN pose of 1e30, issue 19) is refused with a reason,
+// A sensor the octree cannot hold (a CARMEN pose of 1e30) is refused with a reason,
 // not counted as inserted with nothing inserted.
 TEST(ScanInserter, AnOriginOutsideTheOctreeIsRefused) {
   octomap::OcTree tree(0.05);

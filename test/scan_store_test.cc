@@ -1,4 +1,4 @@
-#include "octo_slice_mapper/scan_store.h"
+#include "octo_slice_mapper/internal/scan_store.h"
 
 #include <gtest/gtest.h>
 

@@ -6,9 +6,9 @@
 #include <cstdio>
 #include <vector>
 
-#include "../bench/peer_maps.h"  // the peers of issue 18, as bench_map_quality builds them
+#include "../bench/peer_maps.h"  // the peers, as bench_map_quality builds them
 #include "octo_slice_mapper/held_out_score.h"
-#include "octo_slice_mapper/map_evaluation.h"
+#include "core/internal/map_evaluation.h"
 #include "octo_slice_mapper/mapper.h"
 #include "octo_slice_mapper/sim/session.h"
 
@@ -121,8 +121,8 @@ std::vector<Scan> moved(std::vector<Scan> scans, double shift) {
 // plain hit/miss grid (max-likelihood) within 0.005, and the incremental slice better than
 // octomap_server's method; with the tour as simulated (its walls on cell boundaries) and moved by
 // half a cell (walls inside cells, as a real building's mostly are).
-// (The incremental slice is below the grid, 0.90 and 0.94 against 0.98 and 0.95, a known gap the
-// README's "Map quality" explains; not asserted.)
+// (The incremental slice is below the grid with exact poses, ahead of it with a corrected log's
+// pose errors (the test below); not asserted.)
 TEST_F(SimulatedSessionTest, OnHeldOutScansTheOptimizedMapMatchesTheHitMissGrid) {
   const std::vector<Scan> scans = session_->allScans();  // simulated once, moved per case
   for (const double shift : {0.0, 0.025}) {
@@ -135,8 +135,8 @@ TEST_F(SimulatedSessionTest, OnHeldOutScansTheOptimizedMapMatchesTheHitMissGrid)
 
 // With a corrected log's pose errors (each scan's recorded pose 3 cm and 1 deg off, sigma), the
 // peers' walls blur and ours must not: the incremental slice ahead of both peers and the pass's
-// map ahead of the better one by 0.05, the targets issue 18 sets on the real logs (measured 0.81
-// and 0.86 against 0.74 and 0.72; with exact poses the grid wins, the test above).
+// map ahead of the better one by 0.05, as on the real logs (with exact poses the grid wins, the
+// test above).
 TEST_F(SimulatedSessionTest, WithACorrectedLogsPoseErrorsOurMapsBeatBothPeers) {
   std::vector<Scan> scans = moved(session_->allScans(), 0.025);
   sim::PoseErrors errors;

@@ -64,7 +64,7 @@ TEST(SliceGrid, MostOccupiedVoxelOfTheColumnCounts) {
 }
 
 // Without an obstacle in any layer, a column is as free as its best-observed layer: weak evidence
-// in a layer a tilted beam only grazed (45 %) must not hide the free layer it crossed (issue 21).
+// in a layer a tilted beam only grazed (45 %) must not hide the free layer it crossed.
 TEST(SliceGrid, WithoutAnObstacleTheFreestLayerCounts) {
   octomap::OcTree tree(0.05);
   SliceGrid slice(tree, SliceOptions{0.16, 0.36});
@@ -166,7 +166,7 @@ TEST(SliceGrid, ALayerReachedLaterOrLoadedStillCounts) {
 }
 
 // Loading a map whose band spans kilometres is refused with a reason instead of building a
-// gigabyte slice for minutes (issue 19: half an .ot took 250 s and 5-8 GB); the map in place stays.
+// gigabyte slice for minutes half an .ot took 250 s and 5-8 GB); the map in place stays.
 TEST(SliceGrid, ASliceTooBigToBuildIsRefusedOnLoad) {
   octomap::OcTree far_apart(0.05);
   far_apart.updateNode(-1500.0, -1500.0, 0.26, true);

@@ -1,7 +1,7 @@
 // The one grid walk (voxel_traversal.h) against a brute-force reference: every cell of the
 // segment's bounding box cut with the segment (slab by slab), those it crosses for a positive
 // length sorted by where it enters them. Same cells, same order, same exit distances.
-#include "octo_slice_mapper/voxel_traversal.h"
+#include "core/internal/voxel_traversal.h"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-// Depth frames into a MappingSession on several threads (issue 22): each frame's updates are
+// Depth frames into a MappingSession on several threads: each frame's updates are
 // worked out (grouping its points and tracing their rays, which reads no map: CloudPreparer) by
 // whichever worker is free, frames in parallel, and applied to the map strictly in the order
 // they were submitted, so the map is the one inserting them one by one gives. Scans submitted
@@ -7,8 +7,8 @@
 // result in turn applies it (one applier at a time).
 //
 // Why frames in parallel: a 640 x 480 frame of a room takes 20-30 ms of one core, and splitting
-// one frame's tracing across the two cores cost ~1.5x its CPU (doc/depth-camera-record.md);
-// two frames at once cost what they cost one after the other.
+// one frame's tracing across the two cores costs about half again its CPU time; two frames at once
+// cost what they cost one after the other.
 #pragma once
 
 #include <atomic>

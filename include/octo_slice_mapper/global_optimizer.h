@@ -13,7 +13,7 @@
 
 #include "octo_slice_mapper/forward_sensor_model.h"
 #include "octo_slice_mapper/map_io.h"
-#include "octo_slice_mapper/scan_store.h"
+#include "octo_slice_mapper/internal/scan_store.h"
 
 namespace octo_slice_mapper {
 
@@ -23,7 +23,10 @@ struct GlobalOptimizerOptions {
   ReadingPolicy readings;
   // A no-return reading says "no obstacle within this distance" (as the inverse model clears).
   double no_return_range = 4.0;
-  // Returns farther than this are not used (0 = the sensor's range_max).
+  // Returns farther than this are not used (0 = the sensor's range_max). Unlike the insertion,
+  // the pass keeps far returns by default: one a pose error moved only costs its own beam's
+  // likelihood (the uniform term), where in the inverse model it marks and clears cells; cutting
+  // them at the insertion's 30 m left the outdoor log's optimized map with far less known.
   double max_range = 0.0;
   int max_sweeps = 100;
   // Workers for indexing the beams and judging the cells (0 = every core). The map is the same

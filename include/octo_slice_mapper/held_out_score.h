@@ -1,5 +1,5 @@
 // How well a map predicts returns it was not built from, judged as a navigation stack reads the
-// exported map (issue 18): the map_server reading of the .pgm (occupied >= occupied_thresh, free
+// exported map: the map_server reading of the .pgm (occupied >= occupied_thresh, free
 // < free_thresh, the rest unknown), and each held-out return cast through that trinary grid.
 #pragma once
 

@@ -6,15 +6,17 @@
 
 namespace octo_slice_mapper {
 
-// Defaults are for a Hokuyo URG-04LX class lidar: 0.36 deg steps, +-10 mm up to 1 m and
-// +-1 % of the range beyond (read as +-2 sigma), 5.6 m range.
+// Defaults are for Hokuyo and SICK class lidars, chosen by leaving one of the four shared logs
+// out at a time (doc/benchmarks.md).
 struct InverseSensorModelOptions {
-  // Full opening angle of a beam's cone (rad): the lidar's own beam divergence (URG and SICK
-  // scanners: about 0.25 deg). Evidence stays inside it, so a beam that grazes a wall clears only
-  // what it really passed (a cone widened to the angle step swept whole walls away, issue 18).
-  double beam_opening_angle = 0.0044;
+  // Full opening angle of a beam's cone (rad); 0 traces a thin beam along its axis. A cone
+  // shares a return's evidence across its cross-section, which at long range dilutes a wall's
+  // evidence over voxels the return did not come from: a thin beam predicted held-out scans as
+  // well or better on every shared log. Wider cones suit sonar-like sensors.
+  double beam_opening_angle = 0.0;
   // Widen every cone to the scan's angle step, so that neighbouring beams tile the scan plane
-  // without gaps (the model before issue 18; it erodes walls seen at a grazing angle).
+  // without gaps (it erodes walls seen at a grazing angle: a grazing beam clears wall voxels it
+  // never entered).
   bool cone_covers_angle_step = false;
   // Outer share of the half-angle over which the evidence fades smoothly (cosine) to nothing.
   double cone_taper_fraction = 0.5;
@@ -22,8 +24,10 @@ struct InverseSensorModelOptions {
   // the occupied peak and the width of the free->occupied->unknown transitions. It is never taken
   // below a quarter voxel (the peak's mass is counted per voxel, so it lands in the voxel of the
   // return however thin it is).
+  // A SICK or Hokuyo scanner's noise grows little with range; what grows is the error of the
+  // pose a return is placed with, which sigma does not model.
   double sigma_base = 0.005;
-  double sigma_per_meter = 0.005;
+  double sigma_per_meter = 0.002;
   // Transitions widen off the beam axis: sigma *= 1 + sigma_angle_gain * (angle / half_angle).
   double sigma_angle_gain = 1.0;
   // Probabilities the model assigns in the free valley and to a voxel that holds the whole
@@ -36,7 +40,7 @@ struct InverseSensorModelOptions {
   // A reading at/beyond range_max ("no return") clears space up to this distance (m), capped at
   // range_max; it never marks anything occupied. 0 (the default) disables clearing by no-return
   // readings: scanners also report glass, black and specular surfaces as no return, and clearing
-  // 4 m along them lowered the held-out accuracy on both shared logs (issue 18).
+  // along them lowers the held-out accuracy on the shared logs.
   double no_return_clear_distance = 0.0;
 };
 

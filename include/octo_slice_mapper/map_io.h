@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "octo_slice_mapper/atomic_file.h"
+#include "octo_slice_mapper/internal/atomic_file.h"
 #include "octo_slice_mapper/slice_grid.h"
 
 namespace octo_slice_mapper {

@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "octo_slice_mapper/optimized_map.h"
-#include "octo_slice_mapper/scan_inserter.h"
-#include "octo_slice_mapper/scan_store.h"
+#include "octo_slice_mapper/internal/scan_inserter.h"
+#include "octo_slice_mapper/internal/scan_store.h"
 #include "octo_slice_mapper/slice_grid.h"
 
 namespace octo_slice_mapper {
@@ -20,7 +20,7 @@ struct MapperOptions {
   // OctoMap clamping bounds (probabilities): a voxel never gets surer than this, so a person who
   // walked away is cleared again (from 0.997, 13 beams through it at p_free 0.4 take it below
   // map_server's 0.65). With OctoMap's own 0.12 / 0.97 and p_free 0.35, 5 grazing beams did that
-  // to any wall, so walls seen at a grazing angle flickered between occupied and free (issue 18).
+  // to any wall, so walls seen at a grazing angle flickered between occupied and free.
   double clamp_min = 0.003;
   double clamp_max = 0.997;
   InsertOptions insert;

@@ -1,4 +1,4 @@
-// A mapping session as both the node and octo_slice_map run it (issue 20): the Mapper behind one
+// A mapping session as both the node and octo_slice_map run it: the Mapper behind one
 // lock, and the workflows around it written once: saving (with or without the global pass),
 // the global pass on request, applying its result to the map, reset and load, and the input of
 // the background pass. Insertion runs on one thread while a save or a pass runs on another: the

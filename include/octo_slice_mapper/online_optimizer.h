@@ -1,4 +1,4 @@
-// The global pass kept running while mapping goes on (issue 18): a worker thread takes the newest
+// The global pass kept running while mapping goes on: a worker thread takes the newest
 // input (the kept scans and the map to start from), runs the hill climbing on it and leaves the
 // result for the mapping side to publish. Submitting never waits for a pass: an input not started
 // yet is replaced by a newer one, at most one pass runs at a time, and each result says which

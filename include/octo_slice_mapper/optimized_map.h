@@ -10,7 +10,7 @@
 
 #include "octo_slice_mapper/global_optimizer.h"
 #include "octo_slice_mapper/map_io.h"
-#include "octo_slice_mapper/scan_store.h"
+#include "octo_slice_mapper/internal/scan_store.h"
 
 namespace octo_slice_mapper {
 
@@ -43,7 +43,7 @@ OptimizedMap optimizeScans(const std::vector<StoredScan>& scans, const GlobalOpt
 // them, the layers the global pass speaks for: those its scans' beams sweep (a level 2D lidar's
 // one; a tilted one's a few more). An obstacle in a band voxel outside those (a depth camera's table top or shelf overhang
 // above the lidar's plane) is another sensor's evidence, which the pass cannot see: its result
-// neither overwrites that voxel nor hides it (issue 22: a save with the global pass erased the
+// neither overwrites that voxel nor hides it a save with the global pass erased the
 // table top the camera had mapped).
 struct PassBand {
   unsigned band_lo = 0, band_hi = 0;
@@ -63,8 +63,8 @@ GridImage withObstacles(const GridImage& grid, const GridImage& frame, const std
 
 // Sets the voxels of the band's layers the pass speaks for under every known cell of `grid` to the
 // tree's clamping bound (occupied -> max, free -> min); unknown cells and the other layers are left
-// alone (before issue 22 every layer of the band was written: a level lidar's result stood for the
-// whole band, and a second pass could not tell its predecessor's walls from a camera's table top).
+// alone: a level lidar's result does not stand for the whole band, and a later pass can tell its
+// predecessor's walls from a camera's table top.
 // `grid` must be aligned with the tree's voxel columns (GlobalOptimizer and SliceGrid grids are).
 // Returns the keys written.
 std::vector<octomap::OcTreeKey> writeGridIntoBand(const GridImage& grid, const PassBand& band, octomap::OcTree* tree);

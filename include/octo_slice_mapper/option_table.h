@@ -1,7 +1,8 @@
-// Every option of the mapper named once (issue 20): name, unit, what it does, and the field of
-// MapperOptions it sets; the default is the field's value in MapperOptions{}. The node reads
-// each as its ~parameter, octo_slice_map as --name-with-dashes (with CLI11), and a test checks
-// the README's parameter table against it. Adding a field = one line here.
+// Every option of the mapper named once: name, unit, what it does, and the field of MapperOptions
+// it sets; the default is the field's value in MapperOptions{}. The node reads each as its
+// ~parameter, octo_slice_map as --name-with-dashes (with CLI11), bench_map_quality with --set,
+// and doc/parameters.md is generated from it (parameter_doc; a test keeps the page current).
+// Adding an option = one line here.
 #pragma once
 
 #include <functional>
@@ -22,6 +23,8 @@ struct OptionSpec {
   const char* unit;  // "" for none
   const char* doc;
   std::function<OptionField(Options&)> field;
+  // rqt_reconfigure can change it in a running node (cfg/Mapper.cfg lists exactly these).
+  bool live = false;
 };
 
 const std::vector<OptionSpec<MapperOptions>>& mapperOptionTable();

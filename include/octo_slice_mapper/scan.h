@@ -24,7 +24,7 @@ struct Scan {
 };
 
 // cos and sin of each beam's angle (Scan::beamAngle), kept while the scans' geometry stays the
-// same: a lidar's does, and four calls per beam were about 2 % of a scan's insertion (issue 21).
+// same: a lidar's does, and four calls per beam are a measurable share of a scan's insertion.
 class BeamDirections {
  public:
   // The table for `scan`'s angle_min, angle_increment and number of beams, made anew only when

@@ -6,8 +6,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "octo_slice_mapper/key_box.h"
-#include "octo_slice_mapper/layer_cache.h"
+#include "octo_slice_mapper/internal/key_box.h"
+#include "octo_slice_mapper/internal/layer_cache.h"
 
 namespace octo_slice_mapper {
 
@@ -29,7 +29,7 @@ constexpr std::int8_t kPendingCell = 127;
 // the band's occupancy probability in percent (0..100) or -1 when no voxel of the band is known.
 // Of several known voxels in a column the most occupied one counts when it is 50 % or more: an
 // obstacle anywhere in the band blocks the robot. Else the least occupied one counts: the layer a
-// beam crossed, not one it grazed with its cone's edge (a tilted scan's, issue 21).
+// beam crossed, not one it grazed with its cone's edge (a tilted scan's).
 class SliceGrid {
  public:
   // With a `cache`, voxels of its layers are read from it (the tree may lag behind it).

@@ -1,4 +1,4 @@
-#include "octo_slice_mapper/atomic_file.h"
+#include "octo_slice_mapper/internal/atomic_file.h"
 
 #include <dirent.h>
 #include <fcntl.h>

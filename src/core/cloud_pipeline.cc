@@ -6,8 +6,8 @@
 #include <optional>
 #include <string>
 
-#include "octo_slice_mapper/parallel_chunks.h"
-#include "octo_slice_mapper/thread_cpu_time.h"
+#include "core/internal/parallel_chunks.h"
+#include "core/internal/thread_cpu_time.h"
 
 namespace octo_slice_mapper {
 

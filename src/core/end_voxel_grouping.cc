@@ -1,9 +1,9 @@
-#include "octo_slice_mapper/end_voxel_grouping.h"
+#include "core/internal/end_voxel_grouping.h"
 
 #include <algorithm>
 #include <cmath>
 
-#include "octo_slice_mapper/parallel_chunks.h"
+#include "core/internal/parallel_chunks.h"
 
 #if defined(__SSE2__)
 #include <emmintrin.h>

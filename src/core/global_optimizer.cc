@@ -5,8 +5,8 @@
 #include <cmath>
 #include <cstring>
 
-#include "octo_slice_mapper/parallel_chunks.h"
-#include "octo_slice_mapper/voxel_traversal.h"
+#include "core/internal/parallel_chunks.h"
+#include "core/internal/voxel_traversal.h"
 
 namespace octo_slice_mapper {
 namespace {

@@ -61,7 +61,7 @@ double InverseSensorModel::hitProfileExact(double u, double k) const {
 
 // Linear interpolation in a table over u in [kPureFreeBelow, kBehindCutoff). Inlined, as are the
 // CDF, sigma and the profile below, into hitUpdateInCone: they run for every voxel near a return,
-// and as separate calls they took half again as many instructions (issue 21).
+// and as separate calls they took half again as many instructions.
 __attribute__((always_inline)) inline double InverseSensorModel::lookup(const std::vector<double>& table, double u) {
   const double x = (u - kPureFreeBelow) * kStepsPerSigma;
   const std::size_t i = std::min(static_cast<std::size_t>(std::max(0.0, x)), table.size() - 2);
@@ -113,7 +113,7 @@ double InverseSensorModel::coneWeight(double off_axis, double half_angle) const 
 //     falls within the voxel's extent along the beam (u - k .. u + k, k = half a voxel / sigma):
 //     one return is evidence for one obstacle, so the voxels along the axis share one peak's
 //     worth (a peak value per voxel instead painted the voxels before and behind the return too,
-//     and walls grew towards the sensor, issue 18);
+//     and walls grew towards the sensor);
 //   B fades the peak's far flank smoothly to zero between u = 1 and u = 2, so no information
 //     reaches more than 2 sigma behind the obstacle (a long positive tail would add up over many
 //     scans and thicken every wall).

@@ -1,4 +1,4 @@
-#include "octo_slice_mapper/layer_cache.h"
+#include "octo_slice_mapper/internal/layer_cache.h"
 
 #include <algorithm>
 
@@ -53,7 +53,7 @@ void LayerCache::cover(Layer* l, unsigned kx0, unsigned ky0, unsigned kx1, unsig
 // Where the octree holds none of the 64 x 64 voxels (no node at the depth that spans them;
 // typical while mapping new ground) one search tells. Else one walk over the tile's part of the
 // layer: loaded voxel by voxel on first use instead, a tilted scan's new layers cost a root-to-leaf
-// search per voxel it changed and per layer of every slice column it changed (issue 21).
+// search per voxel it changed and per layer of every slice column it changed.
 std::unique_ptr<LayerCache::Tile> LayerCache::newTile(std::uint16_t z, unsigned kx, unsigned ky) const {
   const unsigned x0 = kx & ~kTileMask, y0 = ky & ~kTileMask;
   auto tile = std::make_unique<Tile>(unknownValue(), z, static_cast<std::uint16_t>(x0), static_cast<std::uint16_t>(y0));

@@ -1,4 +1,4 @@
-#include "octo_slice_mapper/map_evaluation.h"
+#include "core/internal/map_evaluation.h"
 
 #include <algorithm>
 #include <cmath>

@@ -15,7 +15,7 @@
 #include <utility>
 #include <vector>
 
-#include "octo_slice_mapper/atomic_file.h"
+#include "octo_slice_mapper/internal/atomic_file.h"
 
 namespace octo_slice_mapper {
 namespace {
@@ -170,7 +170,7 @@ std::unique_ptr<octomap::OcTree> loadTree(const std::string& path, std::string* 
     return tree;
   }
   if (startsWith(bytes, kFullHeader)) {
-    // OctoMap's reader builds a tree from whatever a truncated or damaged file holds (issue 19: half
+    // OctoMap's reader builds a tree from whatever a truncated or damaged file holds half
     // a .ot gave 2 billion known cells and voxels at z = 327 m), and a child byte it reads past the
     // end is uninitialised, so it can recurse without bound: the data is walked here first.
     std::size_t declared = 0, data_begin = 0;

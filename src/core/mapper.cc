@@ -27,7 +27,6 @@ Mapper::Mapper(const MapperOptions& options) : options_(options), store_(options
 void Mapper::followInsertion(MapperOptions* options) {
   options->optimizer.no_return_range = options->insert.model.no_return_clear_distance;
   options->optimizer.readings = options->insert.readings;
-  options->optimizer.max_range = options->insert.max_range;
 }
 
 void Mapper::adopt(std::unique_ptr<octomap::OcTree> tree) {
@@ -63,7 +62,7 @@ InsertResult Mapper::insert(const Scan& scan) {
 // tile's 4 096 more), an eighth of the bound at a time: a flush per scan stays about as short as
 // one of 12 500 voxels, while a voxel stays in the cache long enough for the many scans that keep
 // changing it to cost one write (a tilted scan changes 2 000 voxels, many of them again and
-// again, issue 21).
+// again).
 void Mapper::boundUnflushed() {
   if (lent_) return;
   LayerCache& cache = inserter_->cache();

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <utility>
 
-#include "octo_slice_mapper/thread_cpu_time.h"
+#include "core/internal/thread_cpu_time.h"
 
 namespace octo_slice_mapper {
 

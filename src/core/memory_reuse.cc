@@ -1,4 +1,4 @@
-#include "octo_slice_mapper/memory_reuse.h"
+#include "core/internal/memory_reuse.h"
 
 #if defined(__GLIBC__)
 #include <malloc.h>

@@ -1,4 +1,4 @@
-#include "octo_slice_mapper/occupancy_percent.h"
+#include "core/internal/occupancy_percent.h"
 
 #include <octomap/octomap_utils.h>
 

@@ -1,4 +1,4 @@
-#include "octo_slice_mapper/octree_batch_update.h"
+#include "octo_slice_mapper/internal/octree_batch_update.h"
 
 #include <algorithm>
 #include <cstdint>

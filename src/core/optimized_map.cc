@@ -4,9 +4,9 @@
 #include <chrono>
 #include <cmath>
 
-#include "octo_slice_mapper/key_box.h"
+#include "octo_slice_mapper/internal/key_box.h"
 #include "octo_slice_mapper/map_io.h"
-#include "octo_slice_mapper/octree_batch_update.h"
+#include "octo_slice_mapper/internal/octree_batch_update.h"
 
 namespace octo_slice_mapper {
 

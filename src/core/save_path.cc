@@ -1,4 +1,4 @@
-#include "octo_slice_mapper/save_path.h"
+#include "core/internal/save_path.h"
 
 #include <climits>
 #include <cstdlib>
@@ -37,9 +37,10 @@ bool resolveSavePrefix(const std::string& maps_dir, const std::string& requested
     return false;
   }
   // The longest file of a set is NAME.yaml; a longer name would fail half-way through a save.
-  constexpr std::size_t kLongestExtension = sizeof(".yaml") - 1;
+  // The longest name a save writes is PREFIX_incremental.yaml (map_io.h's saveMapSet).
+  constexpr std::size_t kLongestExtension = sizeof("_incremental.yaml") - 1;
   if (name.size() + kLongestExtension > NAME_MAX) {
-    *error = "refused: the file name prefix has " + std::to_string(name.size()) + " characters; with \".yaml\" it " +
+    *error = "refused: the file name prefix has " + std::to_string(name.size()) + " characters; with \"_incremental.yaml\" it " +
              "must fit in " + std::to_string(NAME_MAX) + " (at most " + std::to_string(NAME_MAX - kLongestExtension) + ")";
     return false;
   }

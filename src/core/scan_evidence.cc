@@ -1,10 +1,10 @@
-#include "octo_slice_mapper/scan_evidence.h"
+#include "octo_slice_mapper/internal/scan_evidence.h"
 
 #include <algorithm>
 #include <cstdlib>
 #include <new>
 
-#include "octo_slice_mapper/octree_batch_update.h"
+#include "octo_slice_mapper/internal/octree_batch_update.h"
 
 namespace octo_slice_mapper {
 

@@ -1,7 +1,7 @@
-#include "octo_slice_mapper/scan_inserter.h"
+#include "octo_slice_mapper/internal/scan_inserter.h"
 
-#include "octo_slice_mapper/end_voxel_grouping.h"
-#include "octo_slice_mapper/voxel_traversal.h"
+#include "core/internal/end_voxel_grouping.h"
+#include "core/internal/voxel_traversal.h"
 
 #include <algorithm>
 #include <cmath>
@@ -46,7 +46,7 @@ std::vector<Beam> ScanInserter::beamsOf(const Scan& scan, ReadingCounts* counts)
 
 namespace {
 
-// Empty, or why the octree cannot hold a sensor at `origin` (issue 19: a CARMEN pose of 1e30 was
+// Empty, or why the octree cannot hold a sensor at `origin` a CARMEN pose of 1e30 was
 // counted as inserted, with nothing inserted).
 std::string originError(const octomap::OcTree& tree, const Eigen::Vector3d& origin) {
   octomap::OcTreeKey key;
@@ -262,7 +262,7 @@ class BeamEvidence {
     along = std::max(0.0, along);
     // The voxels the axis passes through are judged on the axis; the others by the angle of
     // their centre (judging them by their part nearest the axis, a beam grazing a wall cleared
-    // wall voxels it never entered, issue 18).
+    // wall voxels it never entered).
     const bool on_axis = axis_ray || along <= 0.0;
     if (on_axis) return along < pure_free_until_ ? l_free_ : model_.onAxis(axis_, along);
     // tan of the angle between the axis and the voxel's centre; the model only when the voxel is
@@ -299,7 +299,7 @@ class VoxelCentres {
   // Along `direction` and the squared distance off it (from its nearest point ahead of the origin).
   // The centre in double, as keyToCoord(key_type) and placeInLayer have it. (This used to round it
   // through float, as keyToCoord(OcTreeKey) does, but GCC 12.2 at -O2 vectorized x and y together
-  // and dropped their rounding, keeping z's: doc/tilted-scans-record.md.)
+  // and dropped their rounding, keeping z's.)
   __attribute__((always_inline)) void place(const octomap::OcTreeKey& key, const Eigen::Vector3d& direction,
                                             double* along, double* lateral_sq) const {
     const Eigen::Vector3d v(coord(key[0]) - origin_.x(), coord(key[1]) - origin_.y(), coord(key[2]) - origin_.z());
@@ -563,7 +563,7 @@ void ScanInserter::traceEvidence(const Eigen::Vector3d& origin, const std::vecto
 }
 
 // A scan's rays reach few voxel layers: a level scan (the sensor's x-y plane horizontal) only
-// its origin's, one tilted by a degree or two (real odometry's pitch and roll, issue 21) a few.
+// its origin's, one tilted by a degree or two (real odometry's pitch and roll) a few.
 // Then its combined evidence goes straight into the layer cache, layer by layer, as fast for a
 // tilted scan as for a level one; a scan reaching more layers goes into the octree.
 InsertResult ScanInserter::insertIntoLayers(const Eigen::Vector3d& origin, const std::vector<Beam>& beams,

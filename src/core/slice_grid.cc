@@ -6,7 +6,7 @@
 #include <limits>
 #include <stdexcept>
 
-#include "octo_slice_mapper/occupancy_percent.h"
+#include "core/internal/occupancy_percent.h"
 
 namespace octo_slice_mapper {
 namespace {
@@ -151,8 +151,8 @@ std::int8_t SliceGrid::columnValue(std::uint16_t kx, std::uint16_t ky) const {
   if (!known) return kUnknownCell;
   // An obstacle more likely than not in any layer blocks the column. Else the column is as free as
   // its best-observed layer: a tilted scan's beams graze the layers beside theirs with the cone's
-  // edge, and the weak evidence there (45 %, say) must not hide the layer they crossed (issue 21:
-  // a degree of tilt turned a fifth of the free cells grey, unknown to map_server).
+  // edge, and the weak evidence there (45 %, say) must not hide the layer they crossed (else a
+  // degree of tilt turns many free cells grey, unknown to map_server).
   return OccupancyPercent::of(most >= 0.0f ? most : least);
 }
 

@@ -1,4 +1,4 @@
-// dynamic_reconfigure for a live session (issue 21): the inverse model, the slice band, the
+// dynamic_reconfigure for a live session: the inverse model, the slice band, the
 // forward model and the publish rate (cfg/Mapper.cfg), so that rqt_reconfigure can tune them.
 // A change goes to the MappingSession for the following scans and is logged.
 #pragma once

@@ -6,7 +6,7 @@
 #include <type_traits>
 
 #include "octo_slice_mapper/map_io.h"
-#include "octo_slice_mapper/thread_cpu_time.h"
+#include "core/internal/thread_cpu_time.h"
 #include "ros/laser_scan_conversion.h"
 #include "ros/point_cloud_conversion.h"
 
@@ -82,7 +82,7 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
       ROS_ERROR("could not load ~map_file: %s; starting with an empty map", error.c_str());
     }
   }
-  // What saves killed mid-write left in maps_dir (each set's final names are whole; see README).
+  // What saves killed mid-write left in maps_dir (each set's final names are whole; doc/bad-input.md).
   if (const std::size_t stale = removeStaleTemporariesIn(options_.maps_dir)) {
     ROS_INFO("removed %zu temporary files a killed save had left in %s", stale, options_.maps_dir.c_str());
   }
@@ -93,7 +93,7 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   expire_timer_ = nh_.createWallTimer(ros::WallDuration(0.05), &MapperNode::expireTick, this);
   // Wall-clock periods: what they pace is work and bandwidth, which a bag replayed at 20x must not
   // multiply (on ROS time both fired 20 times as often, and the diagnostics' tree walks took an
-  // eighth of the scan thread, issue 21).
+  // eighth of the scan thread).
   publish_timer_ = nh_.createWallTimer(ros::WallDuration(1.0 / std::max(0.1, options_.publish_rate)),
                                        [this](const ros::WallTimerEvent&) { publisher_.publishIfChanged(session_, ros::Time::now()); });
   diagnostics_timer_ = nh_.createWallTimer(ros::WallDuration(1.0), &MapperNode::publishDiagnostics, this);

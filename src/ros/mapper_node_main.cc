@@ -1,7 +1,7 @@
 // mapper_node: mapping with known poses from LaserScan (and optional PointCloud2) into an OctoMap.
 #include <ros/ros.h>
 
-#include "octo_slice_mapper/memory_reuse.h"
+#include "core/internal/memory_reuse.h"
 #include "ros/mapper_node.h"
 
 int main(int argc, char** argv) {

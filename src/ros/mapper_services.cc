@@ -2,7 +2,7 @@
 
 #include <cstdio>
 
-#include "octo_slice_mapper/save_path.h"
+#include "core/internal/save_path.h"
 #include "ros/map_conversion.h"
 
 namespace octo_slice_mapper {

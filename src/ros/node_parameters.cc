@@ -41,7 +41,7 @@ const std::vector<OptionSpec<NodeOptions>>& nodeOptionTable() {
   static const std::vector<OptionSpec<NodeOptions>> table = {
       {"frame_id", "", "fixed frame of the map", [](O& o) -> OptionField { return &o.frame_id; }},
       {"publish_rate", "Hz", "the whole map is published this often when it changed",
-       [](O& o) -> OptionField { return &o.publish_rate; }},
+       [](O& o) -> OptionField { return &o.publish_rate; }, true},
       {"publish_markers", "", "publish ~occupied_cells", [](O& o) -> OptionField { return &o.publish_markers; }},
       {"transform_timeout", "s", "how long a message may wait for its transform",
        [](O& o) -> OptionField { return &o.transform_timeout; }},

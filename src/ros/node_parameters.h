@@ -1,5 +1,5 @@
-// ROS parameters -> core options structs, from the option tables. Every parameter and its default
-// is listed in the README (test/parameter_table_test.cc checks it).
+// ROS parameters -> core options structs, from the option tables. doc/parameters.md is generated
+// from them (parameter_doc; test/parameter_table_test.cc keeps it current).
 #pragma once
 
 #include <ros/node_handle.h>
@@ -30,8 +30,9 @@ struct NodeOptions {
   bool write_optimized_into_map = true;  // the global pass's result goes into the octree's slice band
   bool online_optimize = true;           // keep running the global pass in the background: ~optimized_map
   double online_optimize_period = 0.5;   // s (wall) between looks for a finished pass and a changed map
-  // Worker threads of the background pass. One: a second one made it 25 % faster but doubled the
-  // scans' p99 latency at 40 Hz (bench/run_live_latency); saves and ~optimize use every core.
+  // Worker threads of the background pass. One: a second one makes the pass faster but takes the
+  // core the scans need (their p99 latency at 40 Hz doubles, bench/run_live_latency); saves and
+  // ~optimize use every core.
   int online_optimize_threads = 1;
   // Workers preparing point clouds, frames in parallel, applied in arrival order (0: every core).
   int cloud_threads = 0;

@@ -1,5 +1,5 @@
 // sensor_msgs/PointCloud2 -> points in the map frame, after checking that the message's layout
-// holds what it declares (issue 19: a cloud with less data than width x height x point_step
+// holds what it declares a cloud with less data than width x height x point_step
 // crashed the node inside pcl::fromROSMsg; one with point_step 4 or without z went into the map).
 #pragma once
 

@@ -12,7 +12,7 @@
 #include <iostream>
 #include <string>
 
-#include "octo_slice_mapper/map_evaluation.h"
+#include "core/internal/map_evaluation.h"
 
 int main(int argc, char** argv) {
   if (argc < 3) {

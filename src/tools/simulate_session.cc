@@ -10,7 +10,7 @@
 // Truth: PREFIX.{pgm,yaml} for the lidar's plane, PREFIX_nav.{pgm,yaml} for the navigation band
 // (kNavMinZ..kNavMaxZ: what the robot can hit, table top and overhang included).
 //
-// --real-robot: the traits of a real TurtleBot's recording (issue 21): a REP 117 driver (+inf no
+// --real-robot: the traits of a real TurtleBot's recording: a REP 117 driver (+inf no
 // return, -inf too close, NaN), the lidar mounted yawed 20 deg and 3 cm to the side, odometry
 // from dead reckoning (drifting, ~1 deg of pitch and roll, base height moving by 2 cm), the first
 // second of scans before any tf, and a few scans recorded out of order. Prints what it wrote as a

@@ -1,7 +1,7 @@
 // libFuzzer target: the CARMEN log reader on arbitrary bytes (plain or gzip), and mapping what it reads.
 #include "fuzz_helpers.h"
 #include "octo_slice_mapper/carmen_log.h"
-#include "octo_slice_mapper/scan_inserter.h"
+#include "octo_slice_mapper/internal/scan_inserter.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   namespace osm = octo_slice_mapper;

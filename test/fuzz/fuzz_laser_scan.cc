@@ -6,7 +6,7 @@
 
 #include <cmath>
 
-#include "octo_slice_mapper/scan_inserter.h"
+#include "octo_slice_mapper/internal/scan_inserter.h"
 #include "ros/laser_scan_conversion.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

@@ -1,11 +1,11 @@
 // libFuzzer target: any PointCloud2 layout (fields, offsets, types, width, height, point_step,
 // row_step, byte order, data) and sensor pose through the node's checks and conversion and into
-// the octree (issue 19: a cloud declaring more points than its data held crashed the node). The
+// the octree a cloud declaring more points than its data held crashed the node). The
 // message is built field by field, as in fuzz_laser_scan.
 #include <fuzzer/FuzzedDataProvider.h>
 #include <sensor_msgs/PointCloud2.h>
 
-#include "octo_slice_mapper/scan_inserter.h"
+#include "octo_slice_mapper/internal/scan_inserter.h"
 #include "ros/point_cloud_conversion.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

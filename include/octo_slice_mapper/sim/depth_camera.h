@@ -1,4 +1,4 @@
-// A Kinect-class depth camera in a small 3D world of boxes (issue 22): the frames the cloud
+// A Kinect-class depth camera in a small 3D world of boxes: the frames the cloud
 // benchmark and tests insert. The world: a room (its walls, floor and ceiling seen from inside)
 // with furniture as solid boxes: a table (top at 0.72 m on four legs), a shelf whose overhang
 // hangs above the lidar's plane, and a low step below it.

@@ -55,7 +55,7 @@ struct FloorPlan {
   double lidar_plane_z = 0.26;
 
   // Corridor along x with rooms north and south, three open doors, furniture, one person. Room B
-  // holds 3D furniture for a depth camera (issue 22): a table (top 0.69-0.72 m on four legs), a
+  // holds 3D furniture for a depth camera: a table (top 0.69-0.72 m on four legs), a
   // cabinet whose top board overhangs at 0.45-0.60 m, above the lidar plane, and a step 0.08 m
   // high, below it.
   static FloorPlan office();

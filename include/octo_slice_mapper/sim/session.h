@@ -57,7 +57,7 @@ struct SessionSpec {
   // Straight down FloorPlan::doorCorridor() past the door with a ring of 24 sonar-like range
   // sensors: 20 deg cones, 15 deg apart, 5 m.
   static SessionSpec corridorPass();
-  // The office tour as a real TurtleBot records it (issue 21): a REP 117 driver, a lidar mounted
+  // The office tour as a real TurtleBot records it: a REP 117 driver, a lidar mounted
   // 20 deg yawed and 3 cm to the side. (The odometry's drift and tilt are DeadReckoning's.)
   static SessionSpec realRobotTour();
 };

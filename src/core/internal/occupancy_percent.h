@@ -1,6 +1,5 @@
 // A voxel's log-odds as the slice shows it, in percent: lround(100 * octomap::probability(l)),
-// without the exp() (with the lround, a fifth of the instructions of a tilted scan's slice update,
-// issue 21).
+// without the exp() (with the lround, a large share of a tilted scan's slice update).
 //
 // The percent steps up at 100 log-odds, never closer than 0.04 apart; a table of 1 025 buckets of
 // 1/64 each holds each bucket's percent at its lower end and the float at which it steps up (if

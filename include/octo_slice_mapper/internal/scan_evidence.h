@@ -1,5 +1,5 @@
 // One scan's evidence per voxel, combined as the beams produce it: every voxel gets at most one
-// update per scan, the sum of its beams' evidence or (the rule before issue 18) the strongest
+// update per scan, the sum of its beams' evidence or (octomap_server's rule) the strongest
 // occupied evidence, else the strongest free one (see EvidenceCombining).
 #pragma once
 
@@ -10,7 +10,7 @@
 #include <type_traits>
 #include <vector>
 
-#include "octo_slice_mapper/key_box.h"
+#include "octo_slice_mapper/internal/key_box.h"
 
 namespace octo_slice_mapper {
 

@@ -7,7 +7,7 @@
 #include <functional>
 #include <vector>
 
-#include "octo_slice_mapper/scan_inserter.h"
+#include "octo_slice_mapper/internal/scan_inserter.h"
 
 namespace octo_slice_mapper {
 

@@ -1,4 +1,4 @@
-// Freed memory kept for the next frame (issue 22). A mapping process allocates and frees the same
+// Freed memory kept for the next frame. A mapping process allocates and frees the same
 // few megabytes for every frame (a depth frame's points, its rays, its updates). glibc gives the
 // free memory at the top of a thread's heap back to the system once it exceeds its trim threshold
 // (by default twice the largest block freed lately, a few megabytes here), so the next frame

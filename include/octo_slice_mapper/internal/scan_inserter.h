@@ -10,11 +10,11 @@
 #include <vector>
 
 #include "octo_slice_mapper/inverse_sensor_model.h"
-#include "octo_slice_mapper/key_box.h"
-#include "octo_slice_mapper/layer_cache.h"
-#include "octo_slice_mapper/octree_batch_update.h"
+#include "octo_slice_mapper/internal/key_box.h"
+#include "octo_slice_mapper/internal/layer_cache.h"
+#include "octo_slice_mapper/internal/octree_batch_update.h"
 #include "octo_slice_mapper/scan.h"
-#include "octo_slice_mapper/scan_evidence.h"
+#include "octo_slice_mapper/internal/scan_evidence.h"
 
 namespace octo_slice_mapper {
 
@@ -22,12 +22,14 @@ struct InsertOptions {
   InverseSensorModelOptions model;
   ReadingPolicy readings;
   // Returns farther than this (m) are cut: space up to max_range is cleared, nothing marked
-  // occupied. 0 = use only the sensor's own range_max.
-  double max_range = 0.0;
+  // occupied. 0 = use only the sensor's own range_max. Far returns are placed with the pose's
+  // heading error times their range (0.5 deg: 26 cm at 30 m), so they mark and clear the wrong
+  // cells; 30 m kept every shared log's incremental map ahead of octomap_server's rule.
+  double max_range = 30.0;
   // How the beams of one scan combine per voxel (see ScanEvidence).
   EvidenceCombining combining = EvidenceCombining::kSum;
 
-  // Point clouds (a depth camera, issue 22).
+  // Point clouds (a depth camera).
   // One ray per voxel that returns end in, aimed at their mean point (as OctoMap's discretize
   // mode: one ray per end voxel), instead of one per point: a 640 x 480 frame has 300 000 points
   // but a few thousand end voxels. false: one ray per point.
@@ -49,8 +51,8 @@ struct InsertOptions {
   // ray is walked from its end back towards the sensor, and in its free valley it stops after this
   // many voxels in a row that earlier rays of the frame already gave the whole free valley. Near
   // the sensor a frame's rays cross each voxel dozens of times. An approximation: a voxel that only
-  // the rest of a stopped ray would have reached misses this frame's update (README "Depth camera":
-  // with 16, 0.3-0.4 % of the voxels after ten frames, none of the occupied).
+  // the rest of a stopped ray would have reached misses this frame's update (bench_cloud_insertion
+  // prints how many; with 16, a fraction of a percent of the voxels, none of the occupied).
   int cloud_shared_free_run = 16;
 };
 
@@ -170,7 +172,7 @@ class ScanInserter {
                        const std::vector<Beam>& beams, double half_angle, int shared_free_run = 0);
   // Which walks an instantiation of traceBeams holds. Each walk's loop is best compiled alone:
   // compiled beside the level walk and a cloud's backward walk, the 3D walk kept less in registers
-  // and a tilted session's insertion ran 4 % more instructions (issue 21).
+  // and a tilted session's insertion ran more instructions.
   enum class Walks {
     kAll,    // any beam, rays walked backwards for a frame's shared free space
     kLevel,  // level beams only (isLevelBeam), in their layer

@@ -1,4 +1,4 @@
-// A depth frame's points grouped by the octree voxel they end in (issue 22): one ray per end
+// A depth frame's points grouped by the octree voxel they end in: one ray per end
 // voxel, towards the mean of its points, instead of one per point.
 #pragma once
 

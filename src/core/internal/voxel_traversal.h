@@ -47,7 +47,7 @@ __attribute__((always_inline)) inline bool keepWalking(Visit& visit, Args... arg
 // A walk's cell is one linear index: cell (i, j, k) is i * stride_x + j * stride_y + k * stride_z,
 // with strides of the caller's choosing (an OcTree key packed per axis, a window's cells), so that
 // a step adds one number and the visitor gets the index it stores at rather than coordinates to
-// combine (issue 21: per voxel, combining a key into a window's index cost more than the step).
+// combine per voxel, combining a key into a window's index cost more than the step).
 // Index is unsigned: a step backwards wraps, as it must.
 template <typename Index>
 struct AxisSteps {
@@ -63,9 +63,9 @@ struct AxisSteps {
 // parameter where the walk leaves the cell. Ties step y. Returns false if visit stopped it; p is
 // then the last cell visited. p is a linear index or anything a step can be added to (+=).
 // Which axis advances is unpredictable along a slanted ray: the step is written as selects, so
-// that the loop-carried chain can be a compare and a select (measured: 0.40 -> 0.36 ms/scan). GCC
-// 12 turns them into a branch in the tracer's loop all the same; masked adds instead (see
-// doc/tilted-scans-record.md) did not measure faster.
+// that the loop-carried chain can be a compare and a select (measurably faster than branches). GCC
+// 12 turns them into a branch in the tracer's loop all the same; masked adds instead did not
+// measure faster.
 template <typename Index, typename Visit>
 __attribute__((always_inline)) inline bool walkPlane(Index& p, const WalkAxis& x, const WalkAxis& y, Index step_x,
                                                      Index step_y, int steps, Visit&& visit) {
@@ -86,7 +86,7 @@ __attribute__((always_inline)) inline bool walkPlane(Index& p, const WalkAxis& x
 template <typename Visit>
 inline bool walkPlane(int& i, int& j, const WalkAxis& x, const WalkAxis& y, int steps, Visit&& visit) {
   // The position of the walk above: a step adds {x.step, 0} or {0, y.step} (packed into one
-  // 64-bit index, the pass's walks cost 9 % more instructions).
+  // 64-bit index, the pass's walks take more instructions).
   struct Cell {
     int i, j;
     Cell& operator+=(const Cell& step) {
@@ -107,7 +107,7 @@ inline bool walkPlane(int& i, int& j, const WalkAxis& x, const WalkAxis& y, int 
 
 // The same in 3D: visit(p, t_exit), p the last cell visited after it. The axis is x if t_x < t_y,
 // else y, unless t_z is not above that one: then z. Selected without a branch (as in walkPlane):
-// the branches made a tilted scan's rays 3x the cost of a level one's (issue 21).
+// the branches made a tilted scan's rays 3x the cost of a level one's.
 template <typename Index, typename Visit>
 __attribute__((always_inline)) inline bool walkSpace(Index& p, const WalkAxis& x, const WalkAxis& y, const WalkAxis& z,
                                                      const AxisSteps<Index>& step, int steps, Visit&& visit) {

@@ -12,7 +12,7 @@
 #include <memory>
 #include <vector>
 
-#include "octo_slice_mapper/octree_batch_update.h"
+#include "octo_slice_mapper/internal/octree_batch_update.h"
 
 namespace octo_slice_mapper {
 
@@ -30,7 +30,7 @@ class LayerCache {
   // octree holds no node for it) and kUnloadedBits (the octree is current for it: read it there).
   // One load per voxel then answers both "is it known?" and "is it at its bound?" (a NaN fails
   // every comparison), where a separate state array cost a second cache line per voxel: the
-  // slice reads every band layer of a changed column, five for a tilted scan (issue 21).
+  // slice reads every band layer of a changed column, five for a tilted scan.
   static constexpr std::uint32_t kUnknownBits = 0x7FC00001u, kUnloadedBits = 0x7FC00002u;
   static float unknownValue() { return fromBits(kUnknownBits); }
   static float unloadedValue() { return fromBits(kUnloadedBits); }
@@ -144,9 +144,8 @@ class LayerCache {
   float valueInTree(const octomap::OcTreeKey& key) const;
   // The arithmetic of OccupancyOcTreeBase::updateNode on one voxel: a voxel the octree does not
   // hold starts at 0; one already at the bound the update pushes towards is left alone; else the
-  // update is added in float and the sum clamped. Inline: called once per changed voxel, out of
-  // line it cost a tilted session 1.1 % more instructions (a tilted scan changes 2.5 times as
-  // many voxels as a level one; issue 21).
+  // update is added in float and the sum clamped. Inline: it runs once per changed voxel, and a
+  // tilted scan changes more than twice as many voxels as a level one.
   __attribute__((always_inline)) inline bool applyTo(const Ref& ref, float update, VoxelChange* change = nullptr) {
     float old = *ref.value;
     if (__builtin_expect(isUnloaded(old), 0)) *ref.value = old = valueInTree(ref.key);
@@ -184,7 +183,7 @@ class LayerCache {
   // The tiles holding values the octree lags behind, from dirty_head_ on, in the order their first
   // such value came. A tile's voxels are written together, in tree order straight from its dirty
   // bits: a list of the voxels had to be sorted first, a third of a tilted session's writes into
-  // the octree (issue 21).
+  // the octree.
   std::vector<Tile*> dirty_tiles_;
   std::size_t dirty_head_ = 0;  // dirty_tiles_[0, dirty_head_) were written by flushOldest
   std::size_t dirty_voxels_ = 0;
