@@ -122,9 +122,12 @@ TEST_P(LayerCacheBothRules, FastPathGivesTheSameOctreeAsUpdateNodePerVoxel) {
 TEST_P(LayerCacheBothRules, TooLargeABoxForTheWindowGivesTheSameOctree) {
   octomap::OcTree fast(0.05), reference(0.05), tracer_tree(0.05);
   for (octomap::OcTree* t : {&fast, &reference, &tracer_tree}) clampLikeTheMapper(t);
-  ScanInserter inserter(&fast, combiningBy(GetParam()));
-  ScanInserter tracer(&tracer_tree, combiningBy(GetParam()));
-  // Two returns 210 m out, one along x and one along y (the beams between them read nothing).
+  // Two returns 210 m out, one along x and one along y (the beams between them read nothing),
+  // inserted whole (max_range 0: the sensor's 250 m).
+  InsertOptions options = combiningBy(GetParam());
+  options.max_range = 0.0;
+  ScanInserter inserter(&fast, options);
+  ScanInserter tracer(&tracer_tree, options);
   constexpr float kRange = 210.0f, kIncrement = 0.01f;
   const int beams = int(std::lround(M_PI / 2 / kIncrement)) + 1;
   std::vector<float> ranges(beams, std::numeric_limits<float>::quiet_NaN());

@@ -137,7 +137,7 @@ TEST_F(MapperNodeTest, BadScansDoNotStopTheNode) {
   scan_pub_.publish(broken);
   ros::WallDuration(0.3).sleep();
   // The node is alive and still mapping: a wall at 3.0 m now appears.
-  publishWall(3.0, 5);
+  publishWall(3.025, 5);  // the face mid-voxel, in the cell read at x = 3.11
   ASSERT_TRUE(waitFor([this] { return cellAt(3.11, 0.0) > 50; }, 20.0)) << "mapping stopped after bad scans";
   EXPECT_NE(cellAt(1.11, 0.0), 100) << "the scans refused for bad structure must not have been inserted";
 }
@@ -232,7 +232,7 @@ TEST_F(MapperNodeTest, DynamicReconfigureMovesTheBandAndChangesTheModel) {
     for (const auto& d : srv.response.config.doubles) answered = d.name == "sigma_base" ? d.value : answered;
     EXPECT_DOUBLE_EQ(answered, 0.005) << "refused: the answer holds the value in force";
   }
-  publishWall(3.0, 3);
+  publishWall(3.025, 3);
   EXPECT_TRUE(waitFor([this] { return cellAt(3.11, 0.0) > 50; }, 20.0)) << "still mapping";
   ASSERT_TRUE(set({{"p_free", 0.4}, {"p_occupied", 0.75}, {"sigma_base", 0.005}}));
 }

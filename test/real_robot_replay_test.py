@@ -33,10 +33,12 @@ from ros_session import ros_session, run, run_cases
 RATE = os.environ.get("OSM_REPLAY_RATE", "20")  # bag time per wall second
 COMPARED = [".bt", ".ot", ".pgm"]
 # Occupied cells against the truth, within 3 cells (0.15 m): the dead reckoning turns the map by
-# about 2 deg over the tour and thickens walls it sees twice, so the map cannot match the truth
-# cell for cell (measured: precision 0.63, recall 0.87; at 1 cell 0.41 / 0.73). A mount yaw or tf
-# chain read wrongly smears every wall and drops both far lower.
-TOLERANCE, MIN_PRECISION, MIN_RECALL = "3", 0.55, 0.80
+# about 2 deg over the tour, so no map matches the truth cell for cell. The incremental slice
+# thickens walls it sees twice (measured: precision 0.64, recall 0.85); the global pass's map keeps
+# one cell of each wall face, which covers less of the turned truth's thick walls (0.67 / 0.78). A
+# mount yaw or tf chain read wrongly smears every wall and drops both far lower.
+TOLERANCE = "3"
+MIN_SCORES = {"ros_incremental": (0.55, 0.80), "ros": (0.60, 0.70)}  # (precision, recall)
 
 
 def stall_node(port, stop_s, every_s, done):
@@ -159,13 +161,14 @@ def cases(bin_dir, work):
     small_queue_log = os.path.join(work, "roslaunch_small_queue.txt")
     yield ("... and logged as never having reached the mapper",
            "scan(s) never reached the mapper" in open(small_queue_log).read(), f"no such warning in {small_queue_log}")
-    score_log = os.path.join(work, "compare.txt")
-    run([os.path.join(bin_dir, "compare_maps"), os.path.join(work, "ros.yaml"), truth + ".yaml", "--tolerance",
-         TOLERANCE], score_log)
-    lines = [l for l in open(score_log) if l.startswith("{")]
-    score = json.loads(lines[0]) if lines else {}
-    yield ("map matches the ground truth", score.get("precision", 0) >= MIN_PRECISION and
-           score.get("recall", 0) >= MIN_RECALL, f"{score} (need {MIN_PRECISION} / {MIN_RECALL}; see {score_log})")
+    for name, (min_precision, min_recall) in MIN_SCORES.items():
+        score_log = os.path.join(work, "compare_" + name + ".txt")
+        run([os.path.join(bin_dir, "compare_maps"), os.path.join(work, name + ".yaml"), truth + ".yaml", "--tolerance",
+             TOLERANCE], score_log)
+        lines = [l for l in open(score_log) if l.startswith("{")]
+        score = json.loads(lines[0]) if lines else {}
+        yield (f"{name}.yaml matches the ground truth", score.get("precision", 0) >= min_precision and
+               score.get("recall", 0) >= min_recall, f"{score} (need {min_precision} / {min_recall}; see {score_log})")
 
 
 def main():

@@ -21,8 +21,10 @@ InverseSensorModel::InverseSensorModel(const InverseSensorModelOptions& options,
   if (!(options.sigma_base > 0.0) || options.sigma_per_meter < 0.0 || options.sigma_angle_gain < 0.0) {
     throw std::invalid_argument("inverse sensor model: sigma_base must be > 0, gains >= 0");
   }
-  if (options.beam_opening_angle < 0.0 || options.cone_taper_fraction < 0.0 || options.cone_taper_fraction > 1.0) {
-    throw std::invalid_argument("inverse sensor model: opening angle >= 0, taper fraction in [0, 1]");
+  // A cone of no width weighs every voxel zero, the one a beam ends in too: it would map nothing.
+  const bool no_cone = options.beam_opening_angle <= 0.0 && !options.cone_covers_angle_step;
+  if (options.beam_opening_angle < 0.0 || no_cone || options.cone_taper_fraction < 0.0 || options.cone_taper_fraction > 1.0) {
+    throw std::invalid_argument("inverse sensor model: opening angle > 0 (or cone_covers_angle_step), taper fraction in [0, 1]");
   }
   if (voxel_size < 0.0) throw std::invalid_argument("inverse sensor model: voxel size must be >= 0");
   const double l0 = logOdds(options.prior);

@@ -17,7 +17,7 @@ const std::vector<OptionSpec<MapperOptions>>& mapperOptionTable() {
        [](O& o) -> OptionField { return &o.insert.readings.inf_is_no_return; }},
       {"evidence_combining", "", "how a scan's beams combine per voxel: sum or occupied_wins",
        [](O& o) -> OptionField { return &o.insert.combining; }},
-      {"beam_opening_angle", "rad", "full cone angle of one beam (0: a thin beam along its axis)",
+      {"beam_opening_angle", "rad", "full cone angle of one beam",
        [](O& o) -> OptionField { return &o.insert.model.beam_opening_angle; }, true},
       {"cone_covers_angle_step", "", "widen every cone to the scan's angle step",
        [](O& o) -> OptionField { return &o.insert.model.cone_covers_angle_step; }},
