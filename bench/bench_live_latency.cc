@@ -97,12 +97,14 @@ int main(int argc, char** argv) {
 
   std::map<double, double> latency_by_stamp;  // scan stamp -> latency (s)
   std::size_t full_maps = 0, map_cells = 0;
+  // The incremental slice answers every scan (map itself turns to the global pass's map once the
+  // background pass has a result).
   ros::Subscriber updates = nh.subscribe<map_msgs::OccupancyGridUpdate>(
-      "map_updates", 1000, [&](const map_msgs::OccupancyGridUpdate::ConstPtr& u) {
+      "mapper_node/incremental_map_updates", 1000, [&](const map_msgs::OccupancyGridUpdate::ConstPtr& u) {
         latency_by_stamp.emplace(u->header.stamp.toSec(), (ros::Time::now() - u->header.stamp).toSec());
       },
       ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
-  ros::Subscriber maps = nh.subscribe<nav_msgs::OccupancyGrid>("map", 5, [&](const nav_msgs::OccupancyGrid::ConstPtr& m) {
+  ros::Subscriber maps = nh.subscribe<nav_msgs::OccupancyGrid>("mapper_node/incremental_map", 5, [&](const nav_msgs::OccupancyGrid::ConstPtr& m) {
     ++full_maps;
     map_cells = m->data.size();
     // When a scan grows the grid the node answers it with the whole map (stamped with the scan)
