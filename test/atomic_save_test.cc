@@ -146,8 +146,8 @@ TEST_F(AtomicSaveTest, TemporariesAKilledSaveLeftAreRemoved) {
   EXPECT_NE(loadTree(dir_ + "/m.ot", &error), nullptr) << error;
 }
 
-// Every file of a set carries its save id; a set whose files come from two saves is reported
-// a kill between the renames left a new .bt/.ot/.pgm/.yaml beside the old .png).
+// Every file of a set carries its save id; a set whose files come from two saves is reported (a
+// kill between the renames can leave a new .bt/.ot/.pgm/.yaml beside the old .png).
 TEST_F(AtomicSaveTest, AMixedSetIsDetected) {
   const std::string a = dir_ + "/a", b = dir_ + "/b";
   std::string error;

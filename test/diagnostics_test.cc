@@ -1,6 +1,5 @@
 // The node's counters as /diagnostics and the session summary give them, and which skips get a
-// log line one throttle per reason; the summary agreeing with /diagnostics after a
-// reset).
+// log line (one throttle per reason; the summary agreeing with /diagnostics after a reset).
 #include "ros/diagnostics.h"
 
 #include <gtest/gtest.h>

@@ -393,7 +393,7 @@ TEST_F(MapperNodeTest, CloudsWaitingForTfTimeOutToo) {
 }
 
 // Clouds whose layout declares more than they hold are skipped and counted, and the node maps on
-// the first one crashed it inside pcl::fromROSMsg); a well-formed cloud is inserted.
+// (pcl::fromROSMsg would read past the first one's data); a well-formed cloud is inserted.
 TEST_F(MapperNodeTest, MalformedCloudsAreCountedAndTheNodeMapsOn) {
   ros::Publisher cloud_pub = nh_.advertise<sensor_msgs::PointCloud2>("cloud_in", 5);
   ASSERT_TRUE(waitFor([&cloud_pub] { return cloud_pub.getNumSubscribers() >= 1; }, 20.0));

@@ -43,8 +43,8 @@ OptimizedMap optimizeScans(const std::vector<StoredScan>& scans, const GlobalOpt
 // them, the layers the global pass speaks for: those its scans' beams sweep (a level 2D lidar's
 // one; a tilted one's a few more). An obstacle in a band voxel outside those (a depth camera's table top or shelf overhang
 // above the lidar's plane) is another sensor's evidence, which the pass cannot see: its result
-// neither overwrites that voxel nor hides it a save with the global pass erased the
-// table top the camera had mapped).
+// neither overwrites that voxel nor hides it (else a save with the global pass would erase the
+// table top the camera mapped).
 struct PassBand {
   unsigned band_lo = 0, band_hi = 0;
   unsigned scans_lo = 1, scans_hi = 0;  // the layers its beams sweep; none: the whole band

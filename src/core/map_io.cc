@@ -170,8 +170,8 @@ std::unique_ptr<octomap::OcTree> loadTree(const std::string& path, std::string* 
     return tree;
   }
   if (startsWith(bytes, kFullHeader)) {
-    // OctoMap's reader builds a tree from whatever a truncated or damaged file holds half
-    // a .ot gave 2 billion known cells and voxels at z = 327 m), and a child byte it reads past the
+    // OctoMap's reader builds a tree from whatever a truncated or damaged file holds (half of an
+    // .ot can give billions of known cells and voxels hundreds of metres up), and a child byte it reads past the
     // end is uninitialised, so it can recurse without bound: the data is walked here first.
     std::size_t declared = 0, data_begin = 0;
     if (!headerOf(bytes, &declared, &data_begin)) {

@@ -51,8 +51,8 @@ std::vector<Beam> ScanInserter::beamsOf(const Scan& scan, ReadingCounts* counts)
 
 namespace {
 
-// Empty, or why the octree cannot hold a sensor at `origin` a CARMEN pose of 1e30 was
-// counted as inserted, with nothing inserted).
+// Empty, or why the octree cannot hold a sensor at `origin` (a CARMEN pose of 1e30): such a scan is
+// refused, not counted as inserted with nothing inserted.
 std::string originError(const octomap::OcTree& tree, const Eigen::Vector3d& origin) {
   octomap::OcTreeKey key;
   if (!origin.allFinite()) return "sensor origin is not finite";

@@ -1,6 +1,6 @@
 // sensor_msgs/PointCloud2 -> points in the map frame, after checking that the message's layout
-// holds what it declares a cloud with less data than width x height x point_step
-// crashed the node inside pcl::fromROSMsg; one with point_step 4 or without z went into the map).
+// holds what it declares (pcl::fromROSMsg trusts it: a cloud with less data than width x height x
+// point_step would make it read past the buffer; one with point_step 4 or without z is no cloud).
 #pragma once
 
 #include <sensor_msgs/PointCloud2.h>

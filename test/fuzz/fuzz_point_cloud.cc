@@ -1,6 +1,6 @@
 // libFuzzer target: any PointCloud2 layout (fields, offsets, types, width, height, point_step,
 // row_step, byte order, data) and sensor pose through the node's checks and conversion and into
-// the octree a cloud declaring more points than its data held crashed the node). The
+// the octree (a cloud declaring more points than its data holds must be refused, not read). The
 // message is built field by field, as in fuzz_laser_scan.
 #include <fuzzer/FuzzedDataProvider.h>
 #include <sensor_msgs/PointCloud2.h>

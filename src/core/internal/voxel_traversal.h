@@ -47,7 +47,7 @@ __attribute__((always_inline)) inline bool keepWalking(Visit& visit, Args... arg
 // A walk's cell is one linear index: cell (i, j, k) is i * stride_x + j * stride_y + k * stride_z,
 // with strides of the caller's choosing (an OcTree key packed per axis, a window's cells), so that
 // a step adds one number and the visitor gets the index it stores at rather than coordinates to
-// combine per voxel, combining a key into a window's index cost more than the step).
+// combine (per voxel, combining a key into a window's index costs more than the step).
 // Index is unsigned: a step backwards wraps, as it must.
 template <typename Index>
 struct AxisSteps {
