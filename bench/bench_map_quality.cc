@@ -173,8 +173,8 @@ int main(int argc, char** argv) {
     if (!readScans(d.file, &all)) return 1;
     if (!out_dir.empty()) std::system(("mkdir -p '" + out_dir + "'").c_str());
     for (std::size_t k = 0; k < all.size(); ++k) (hold.holds(k) ? held : train).push_back(all[k]);
-    auto judge = [&](const std::string& map, const osm::GridImage& grid, Clock::time_point t0) {
-      const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    // `seconds`: what making the map took (the default map's includes the incremental one's).
+    auto judge = [&](const std::string& map, const osm::GridImage& grid, double seconds) {
       const osm::GridImage trinary = osm::trinaryOf(grid);
       report(d.name, {map, osm::scoreHeldOut(trinary, held), seconds});
       std::string error;
@@ -182,29 +182,32 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "bench_map_quality: %s\n", error.c_str());
       }
     };
+    const auto since = [](Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); };
     auto t0 = Clock::now();
     osm::Mapper mapper(options);
     for (const osm::Scan& s : train) mapper.insert(s);
     const osm::GridImage incremental = osm::gridImageOf(mapper.slice());
-    const double incremental_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    const double incremental_seconds = since(t0);
     if (!incremental_only) {
       t0 = Clock::now();
       const osm::OptimizedMap optimized = mapper.optimize(/*warm_start=*/true);
-      judge("default", osm::inFrameOf(optimized.grid, incremental), t0 - std::chrono::duration_cast<Clock::duration>(
-                                                                             std::chrono::duration<double>(incremental_seconds)));
+      judge("default", osm::inFrameOf(optimized.grid, incremental), incremental_seconds + since(t0));
     }
-    judge("incremental", incremental, Clock::now() - std::chrono::duration_cast<Clock::duration>(
-                                                         std::chrono::duration<double>(incremental_seconds)));
+    judge("incremental", incremental, incremental_seconds);
     if (incremental_only) continue;
     t0 = Clock::now();
-    judge("optimized_cold", osm::inFrameOf(mapper.optimize(/*warm_start=*/false).grid, incremental), t0);
+    const osm::GridImage cold = osm::inFrameOf(mapper.optimize(/*warm_start=*/false).grid, incremental);
+    judge("optimized_cold", cold, since(t0));
     t0 = Clock::now();
-    judge("octomap_server", osm::bench::octomapServerMap(train, options.resolution, options.slice.min_z,
-                                                          options.slice.max_z), t0);
+    const osm::GridImage server =
+        osm::bench::octomapServerMap(train, options.resolution, options.slice.min_z, options.slice.max_z);
+    judge("octomap_server", server, since(t0));
     t0 = Clock::now();
-    judge("hit_miss_grid", osm::bench::hitMissGrid(train, options.resolution, false), t0);
+    const osm::GridImage grid = osm::bench::hitMissGrid(train, options.resolution, false);
+    judge("hit_miss_grid", grid, since(t0));
     t0 = Clock::now();
-    judge("hit_miss_grid_ml", osm::bench::hitMissGrid(train, options.resolution, true), t0);
+    const osm::GridImage grid_ml = osm::bench::hitMissGrid(train, options.resolution, true);
+    judge("hit_miss_grid_ml", grid_ml, since(t0));
   }
   return 0;
 }
