@@ -67,10 +67,10 @@ TEST(OnlineOptimizer, TheNextPassStartsFromTheLastResult) {
   const OnlineOptimizerResult second = waitFor(&online);
   EXPECT_EQ(second.version, 2u);
   EXPECT_EQ(second.scans_revisited_from, first_scans) << "only the new scans' cells in the first sweep";
-  // The same pass started from the first result (where it knows a cell), with a full first
+  // The same pass started from the first pass's state (where it knows a cell), with a full first
   // sweep, gives the same map and the same log-likelihood.
   const MapSnapshot all = s.mapper.optimizationInput();
-  const GridImage start = warmStartFrom(first.map.grid, all.slice);
+  const GridImage start = warmStartFrom(first.map.state, all.slice);
   const OptimizedMap direct = optimizeScans(all.scans, s.mapper.options().optimizer, 0.05, &start);
   EXPECT_EQ(second.map.grid.cells, inFrameOf(direct.grid, all.slice).cells);
   EXPECT_EQ(second.map.report.final_log_likelihood, direct.report.final_log_likelihood);
@@ -99,7 +99,7 @@ TEST(OnlineOptimizer, AnExtendedIndexGivesTheForegroundPassesMap) {
   ASSERT_GT(second.scans_revisited_from, 0u);
   EXPECT_TRUE(second.map.report.index_extended) << "the last 20 scans stay within the tour's extent";
   const MapSnapshot all = s.mapper.optimizationInput();
-  const GridImage start = warmStartFrom(first.map.grid, all.slice);
+  const GridImage start = warmStartFrom(first.map.state, all.slice);
   const OptimizedMap direct = optimizeScans(all.scans, s.mapper.options().optimizer, 0.05, &start);
   EXPECT_EQ(second.map.grid.cells, inFrameOf(direct.grid, all.slice).cells);
   EXPECT_EQ(second.map.report.final_log_likelihood, direct.report.final_log_likelihood);

@@ -118,6 +118,8 @@ class GlobalOptimizer {
   static constexpr std::size_t npos = std::numeric_limits<std::size_t>::max();
   // 100 occupied, 0 free (a beam passed through before any obstacle), -1 never seen.
   GridImage result() const;
+  // The cells' states: 100 occupied, 0 every other observed cell, -1 unobserved (OptimizedMap::state).
+  GridImage state() const;
   std::size_t memoryBytes() const;
   std::size_t beamCount() const { return beams_.size(); }
 

@@ -80,7 +80,7 @@ class OnlineOptimizer {
   std::condition_variable wake_;
   std::optional<OnlineOptimizerInput> waiting_;
   std::optional<OnlineOptimizerResult> ready_;
-  GridImage last_;  // the last pass's result: the next one's start
+  GridImage last_;  // the last pass's state (OptimizedMap::state): the next one's start
   // Of the last pass's input, to tell whether the next one only appended scans to it.
   std::size_t last_scan_count_ = 0;
   std::optional<StoredScan> last_first_scan_, last_last_scan_;

@@ -17,6 +17,10 @@ namespace octo_slice_mapper {
 struct OptimizedMap {
   OptimizeReport report;
   GridImage grid;  // 100 occupied, 0 free, -1 never observed
+  // The pass's own state: 100 occupied, 0 every other cell a beam reaches (also those behind a
+  // wall that `grid` leaves unknown), -1 the rest. The start of a next pass over more scans: a
+  // cell the pass freed stays free instead of coming back from the incremental map.
+  GridImage state;
 };
 
 // When the start is a converged earlier result over scans[0, first_new_scan) (`earlier`), the

@@ -550,6 +550,21 @@ GridImage GlobalOptimizer::result() const {
   return grid;
 }
 
+GridImage GlobalOptimizer::state() const {
+  GridImage grid;
+  grid.width = width_;
+  grid.height = height_;
+  grid.resolution = resolution_;
+  grid.origin_x = x0_;
+  grid.origin_y = y0_;
+  grid.cells.assign(occupied_.size(), -1);
+  for (std::size_t c = 0; c < occupied_.size(); ++c) {
+    if (occupied_[c]) grid.cells[c] = 100;
+    else if (observed(c)) grid.cells[c] = 0;
+  }
+  return grid;
+}
+
 std::size_t GlobalOptimizer::memoryBytes() const {
   return beams_.capacity() * sizeof(Beam) + cell_beams_begin_.capacity() * sizeof(std::uint64_t) +
          cone_begin_.capacity() * sizeof(std::uint64_t) + cone_cells_.capacity() * sizeof(std::size_t) +

@@ -129,7 +129,10 @@ void OnlineOptimizer::run() {
     if (stopping_) return;  // a pass stopped early is no result
     // After a forget() during the pass, its result belongs to the map before: dropped.
     if (generation == generation_) {
-      last_ = result.map.grid;
+      // The next pass starts from this one's state, not its exported map: a cell it freed behind a
+      // wall (unknown in the map) would otherwise come back occupied from the incremental map,
+      // be looked at and freed again in every pass, and cost each pass sweeps over its beams.
+      last_ = result.map.state;
       last_scan_count_ = input.scans.size();
       if (!input.scans.empty()) last_first_scan_ = input.scans.front(), last_last_scan_ = input.scans.back();
       last_converged_ = result.map.report.converged;

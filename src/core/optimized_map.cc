@@ -37,6 +37,7 @@ OptimizedMap optimizeScans(const std::vector<StoredScan>& scans, const GlobalOpt
   out.report.build_seconds = build_seconds;
   out.report.index_extended = extended;
   out.grid = cropToKnown(optimizer.result());
+  out.state = cropToKnown(optimizer.state());
   return out;
 }
 
