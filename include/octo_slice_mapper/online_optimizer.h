@@ -4,13 +4,14 @@
 // yet is replaced by a newer one, at most one pass runs at a time, and each result says which
 // input (version) it answers.
 //
-// Each pass starts from the last one's result. When that pass converged and the new input's
-// scans begin with the last input's (the scan store only appended), the first sweep looks only at
-// the cells the new scans' beams cross and the cells the last result did not know
-// (GlobalOptimizer::cellsToRevisit): the same map as a full first sweep, at a fraction of its cost
-// (Freiburg 079, all scans: one full sweep 1.8 s). Otherwise the pass looks at every cell. The
-// beam index is then extended by the new scans instead of built anew when they stay within the
-// extent indexed so far (1.2 of a pass's 1.7 s on Freiburg 079 were the index).
+// Each pass starts from the last one's state (OptimizedMap::state), the slice where that knew
+// nothing. When that pass converged and the new input's scans begin with the last input's (the
+// scan store only appended), the first sweep looks only at the cells the new scans' beams cross
+// and the cells the last state did not know (GlobalOptimizer::cellsToRevisit): the same map as a
+// full first sweep, at a fraction of its cost (on a Freiburg 079-sized map a full sweep takes
+// seconds). Otherwise the pass looks at every cell. The beam index is then extended by the new
+// scans instead of built anew when they stay within the extent indexed so far (building it is
+// most of a pass's time on a large map).
 // The pass runs at a lower priority (Linux nice 10) than the thread that inserts scans, on
 // GlobalOptimizerOptions::threads workers (the node gives it one: ~online_optimize_threads).
 #pragma once
