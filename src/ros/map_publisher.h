@@ -39,7 +39,6 @@ class MapPublisher {
   void publishBest(const nav_msgs::OccupancyGrid& grid);
   // The map was reset or cleared: the incremental slice is the best map again, sent whole.
   void forgetBest(MappingSession& session, const ros::Time& stamp);
-  bool hasBest() const { return has_best_; }
 
  private:
   void publishSlice(const nav_msgs::OccupancyGrid& grid);
@@ -48,8 +47,8 @@ class MapPublisher {
   ros::Publisher map_pub_, metadata_pub_, updates_pub_, markers_pub_, optimized_pub_;
   ros::Publisher incremental_pub_, incremental_updates_pub_;
   std::mutex full_mutex_;  // one whole map built and sent at a time
-  std::mutex best_mutex_;  // orders a pass's result against a reset's return to the slice
-  std::atomic<bool> has_best_{false};
+  std::mutex best_mutex_;  // guards has_best_: orders a pass's result against a reset's return to the slice
+  bool has_best_ = false;  // map carries a pass's result
   std::atomic<std::uint64_t> published_geometry_{~std::uint64_t{0}};  // slice geometry last sent whole
   std::atomic<std::uint64_t> published_changes_{~std::uint64_t{0}};   // session.changes() then
   static constexpr std::int64_t kSettleNs = 300000000;                // 0.3 s of whole maps after growth
