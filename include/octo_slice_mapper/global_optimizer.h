@@ -138,6 +138,7 @@ class GlobalOptimizer {
     double log_likelihood;    // of the beam with its current first obstacle
   };
   void setFirst(Beam* beam, std::int32_t cell, float distance) const;
+  GridImage unknownGrid() const;  // the optimizer's grid, every cell unknown
   void addBeams(const std::vector<StoredScan>& scans, std::size_t first, std::size_t end, double bounds[4]);
   double bounds_[4] = {0, 0, 0, 0};  // min x, min y, max x, max y of the traced segments
   template <typename Visit>

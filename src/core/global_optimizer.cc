@@ -523,7 +523,7 @@ std::size_t GlobalOptimizer::cellAt(double x, double y) const {
   return std::size_t(j) * width_ + i;
 }
 
-GridImage GlobalOptimizer::result() const {
+GridImage GlobalOptimizer::unknownGrid() const {
   GridImage grid;
   grid.width = width_;
   grid.height = height_;
@@ -531,6 +531,11 @@ GridImage GlobalOptimizer::result() const {
   grid.origin_x = x0_;
   grid.origin_y = y0_;
   grid.cells.assign(occupied_.size(), -1);
+  return grid;
+}
+
+GridImage GlobalOptimizer::result() const {
+  GridImage grid = unknownGrid();
   for (std::size_t c = 0; c < occupied_.size(); ++c) {
     if (occupied_[c]) {
       grid.cells[c] = 100;
@@ -551,13 +556,7 @@ GridImage GlobalOptimizer::result() const {
 }
 
 GridImage GlobalOptimizer::state() const {
-  GridImage grid;
-  grid.width = width_;
-  grid.height = height_;
-  grid.resolution = resolution_;
-  grid.origin_x = x0_;
-  grid.origin_y = y0_;
-  grid.cells.assign(occupied_.size(), -1);
+  GridImage grid = unknownGrid();
   for (std::size_t c = 0; c < occupied_.size(); ++c) {
     if (occupied_[c]) grid.cells[c] = 100;
     else if (observed(c)) grid.cells[c] = 0;
