@@ -17,6 +17,19 @@ ScanInserter::ScanInserter(octomap::OcTree* tree, const InsertOptions& options)
       evidence_(options.combining),
       cache_(tree) {}
 
+namespace {
+
+// How far a return at `end`, `range` from the sensor, is traced: whole up to `max_range`, cut there
+// beyond it (seen free up to it). A return the octree cannot hold is broken, not far: it keeps its
+// length, so that it is dropped whole and counted (beams_outside_octree) instead of clearing.
+double tracedLength(const octomap::OcTree& tree, const Eigen::Vector3d& end, double range, double max_range) {
+  if (range <= max_range) return range;
+  octomap::OcTreeKey key;
+  return coordToKeySafe(tree, end.x(), end.y(), end.z(), &key) ? max_range : range;
+}
+
+}  // namespace
+
 std::vector<Beam> ScanInserter::beamsOf(const Scan& scan, ReadingCounts* counts) {
   std::vector<Beam> beams;
   beams.reserve(scan.ranges.size());
@@ -33,12 +46,8 @@ std::vector<Beam> ScanInserter::beamsOf(const Scan& scan, ReadingCounts* counts)
     const Eigen::Vector3d across = rotation * Eigen::Vector3d(-s, c, 0.0);
     if (kind == ReadingKind::kHit) {
       if (r > max_range) {
-        // A return the octree cannot hold is broken, not far: it keeps its length, so that it is
-        // dropped whole and counted (beams_outside_octree) instead of clearing max_range.
         const Eigen::Vector3d end = scan.sensor_pose.translation() + dir * static_cast<double>(r);
-        octomap::OcTreeKey key;
-        const bool holdable = coordToKeySafe(*tree_, end.x(), end.y(), end.z(), &key);
-        beams.push_back({dir, holdable ? max_range : static_cast<double>(r), false, across});  // seen free up to max_range
+        beams.push_back({dir, tracedLength(*tree_, end, r, max_range), false, across});
       } else {
         beams.push_back({dir, r, true, across});
       }
@@ -124,11 +133,7 @@ std::vector<Beam> ScanInserter::cloudBeams(const Eigen::Vector3d& origin, const 
     }
     c[ReadingKind::kHit] += n;
     const bool marks = r <= max_range && p.z() >= options_.cloud_mark_min_z && p.z() <= options_.cloud_mark_max_z;
-    // A point the octree cannot hold is no far return but a broken one: its beam keeps its length,
-    // so that it is dropped whole and counted (beams_outside_octree), not cut to clear max_range.
-    octomap::OcTreeKey key;
-    const bool holdable = coordToKeySafe(*tree_, p.x(), p.y(), p.z(), &key);
-    beams.push_back({v / r, holdable ? std::min(r, max_range) : r, marks, Eigen::Vector3d::Zero(),
+    beams.push_back({v / r, tracedLength(*tree_, p, r, max_range), marks, Eigen::Vector3d::Zero(),
                      summed ? static_cast<float>(n) : 1.0f});
   };
   if (!options_.cloud_one_ray_per_voxel) {
