@@ -154,7 +154,7 @@ TEST_F(AtomicSaveTest, AMixedSetIsDetected) {
   ASSERT_TRUE(saveMapSet(small_->tree(), gridImageOf(small_->slice()), a, nullptr, &error)) << error;
   ASSERT_TRUE(saveMapSet(big_->tree(), gridImageOf(big_->slice()), b, nullptr, &error)) << error;
   const MapSetCheck whole = checkMapSet(b);
-  ASSERT_EQ(whole.files.size(), 5u);
+  ASSERT_EQ(whole.files.size(), 6u) << "PREFIX.{bt,ot,pcd,pgm,yaml,png}";
   EXPECT_FALSE(whole.mixed()) << whole.describe();
   const std::string id = whole.files.front().second;
   EXPECT_EQ(id.size(), 16u);
@@ -177,7 +177,7 @@ TEST_F(AtomicSaveTest, AMixedSetIsDetected) {
   ASSERT_EQ(std::system(("cp " + a + ".png " + b + ".png").c_str()), 0);
   const MapSetCheck mixed = checkMapSet(b);
   EXPECT_TRUE(mixed.mixed());
-  EXPECT_NE(mixed.describe().find("b.bt b.ot b.pgm b.yaml are from save " + id), std::string::npos) << mixed.describe();
+  EXPECT_NE(mixed.describe().find("b.bt b.ot b.pcd b.pgm b.yaml are from save " + id), std::string::npos) << mixed.describe();
   EXPECT_NE(mixed.describe().find("b.png are from save " + readSaveId(a + ".png")), std::string::npos)
       << mixed.describe();
   EXPECT_EQ(mapSetPrefixOf(b + ".bt"), b);
@@ -193,7 +193,7 @@ TEST_F(AtomicSaveTest, KilledDuringSetSavesAMixIsAlwaysReported) {
   ASSERT_EQ(::mkdir((dir_ + "/ref").c_str(), 0755), 0);
   std::string error;
   std::map<std::string, std::pair<std::string, std::string>> versions;  // ext -> (small's bytes, big's bytes)
-  for (const char* ext : {".bt", ".ot", ".pgm", ".yaml", ".png"}) versions[ext];
+  for (const char* ext : {".bt", ".ot", ".pcd", ".pgm", ".yaml", ".png"}) versions[ext];
   ASSERT_TRUE(saveMapSet(small_->tree(), gridImageOf(small_->slice()), reference, nullptr, &error)) << error;
   for (auto& v : versions) ASSERT_TRUE(readFile(reference + v.first, &v.second.first, &error));
   ASSERT_TRUE(saveMapSet(big_->tree(), gridImageOf(big_->slice()), reference, nullptr, &error)) << error;

@@ -1,6 +1,10 @@
 #include "octo_slice_mapper/map_io.h"
 
 #include <gtest/gtest.h>
+#include <pcl/PCLPointCloud2.h>
+#include <pcl/conversions.h>
+#include <pcl/io/pcd_io.h>
+#include <pcl/point_types.h>
 
 #include <cstring>
 #include <limits>
@@ -96,7 +100,7 @@ TEST_F(MapIoTest, MapperResumesFromSavedMap) {
   std::vector<std::string> written;
   std::string error;
   ASSERT_TRUE(mapper_.save(dir_ + "/set", &written, &error)) << error;
-  EXPECT_EQ(written.size(), 8u) << "PREFIX.{bt,ot,pgm,yaml,png} and PREFIX_incremental.{pgm,yaml,png}";
+  EXPECT_EQ(written.size(), 9u) << "PREFIX.{bt,ot,pcd,pgm,yaml,png} and PREFIX_incremental.{pgm,yaml,png}";
   Mapper resumed;
   ASSERT_TRUE(resumed.load(dir_ + "/set.ot", &error)) << error;
   EXPECT_EQ(leafLogOdds(resumed.tree()), leafLogOdds(mapper_.tree()));
@@ -108,6 +112,72 @@ TEST_F(MapIoTest, MapperResumesFromSavedMap) {
       ASSERT_EQ(resumed.slice().valueAt(x, y), live.at(i, j)) << x << ", " << y;
     }
   }
+}
+
+// The .pcd of a save: one point per occupied voxel of the .bt, at its centre, with its
+// probability, read back by PCL's own reader.
+TEST_F(MapIoTest, PointCloudFileHoldsTheOccupiedVoxelsAndLoadsWithPcl) {
+  std::vector<std::string> written;
+  std::string error;
+  ASSERT_TRUE(mapper_.save(dir_ + "/set", &written, &error)) << error;
+  octomap::OcTree bt(0.1);
+  std::ifstream in(dir_ + "/set.bt", std::ios::binary);
+  ASSERT_TRUE(bt.readBinary(in));
+  const auto expected = occupiedKeys(bt);
+  ASSERT_GT(expected.size(), 10u);
+
+  pcl::PCLPointCloud2 blob;
+  ASSERT_EQ(pcl::io::loadPCDFile(dir_ + "/set.pcd", blob), 0) << "PCL must read the file";
+  std::vector<std::string> fields;
+  for (const auto& f : blob.fields) fields.push_back(f.name);
+  EXPECT_EQ(fields, (std::vector<std::string>{"x", "y", "z", "occupancy"}));
+  pcl::PointCloud<pcl::PointXYZ> cloud;
+  pcl::fromPCLPointCloud2(blob, cloud);
+  ASSERT_EQ(cloud.size(), expected.size()) << "one point per occupied voxel of the .bt";
+  auto less = [](const octomap::OcTreeKey& a, const octomap::OcTreeKey& b) {
+    return std::tie(a[0], a[1], a[2]) < std::tie(b[0], b[1], b[2]);
+  };
+  std::set<octomap::OcTreeKey, decltype(less)> keys(less);
+  for (const auto& p : cloud) {
+    const octomap::OcTreeKey key = bt.coordToKey(p.x, p.y, p.z);
+    EXPECT_NEAR(bt.keyToCoord(key[0]), p.x, 1e-4) << "the voxel's centre";
+    keys.insert(key);
+  }
+  EXPECT_EQ(keys.size(), expected.size()) << "each voxel once";
+  EXPECT_TRUE(std::equal(keys.begin(), keys.end(), expected.begin(), expected.end()));
+  // The probabilities are the live tree's.
+  const std::size_t occupancy_offset = blob.fields[3].offset;
+  for (std::size_t k = 0; k < cloud.size(); k += 7) {
+    float p = 0.0f;
+    std::memcpy(&p, blob.data.data() + k * blob.point_step + occupancy_offset, sizeof p);
+    const octomap::OcTreeNode* node = mapper_.tree().search(double(cloud[k].x), cloud[k].y, cloud[k].z);
+    ASSERT_NE(node, nullptr);
+    EXPECT_NEAR(p, node->getOccupancy(), 1e-6);
+  }
+  EXPECT_FALSE(readSaveId(dir_ + "/set.pcd").empty()) << "it belongs to the set";
+  EXPECT_EQ(readSaveId(dir_ + "/set.pcd"), readSaveId(dir_ + "/set.bt"));
+}
+
+// A pruned occupied node stands for every leaf it holds; free voxels are left out.
+TEST(OccupiedVoxelsTest, APrunedNodeGivesEachOfItsLeaves) {
+  octomap::OcTree tree(0.05);
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 4; ++j)
+      for (int k = 0; k < 4; ++k) tree.setNodeValue(octomap::OcTreeKey(32768 + i, 32768 + j, 32768 + k), 3.5f);
+  tree.setNodeValue(octomap::OcTreeKey(32800, 32768, 32768), -2.0f);  // free
+  tree.setNodeValue(octomap::OcTreeKey(32801, 32768, 32768), 1.0f);   // occupied, alone
+  tree.prune();
+  ASSERT_LT(tree.getNumLeafNodes(), 64u) << "the block is pruned";
+  const std::vector<OccupiedVoxel> voxels = occupiedVoxels(tree);
+  ASSERT_EQ(voxels.size(), 65u);
+  std::set<std::tuple<int, int, int>> cells;
+  for (const OccupiedVoxel& v : voxels) {
+    cells.insert({int(std::floor(v.x / 0.05)), int(std::floor(v.y / 0.05)), int(std::floor(v.z / 0.05))});
+  }
+  EXPECT_EQ(cells.size(), 65u) << "each leaf once";
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(cells.count({i, i, i}), 1u);
+  EXPECT_EQ(cells.count({33, 0, 0}), 1u);
+  EXPECT_EQ(cells.count({32, 0, 0}), 0u) << "a free voxel is no point";
 }
 
 TEST_F(MapIoTest, PgmYamlFollowMapServerConventions) {

@@ -20,6 +20,9 @@
 #include <functional>
 #include <thread>
 #include <map>
+#include <mutex>
+#include <set>
+#include <tuple>
 #include <limits>
 
 #include "octo_slice_mapper/ClearBox.h"
@@ -151,7 +154,7 @@ TEST_F(MapperNodeTest, SaveMapWritesLoadableFiles) {
   ASSERT_TRUE(ros::service::waitForService("mapper_node/save_map", 10000));
   ASSERT_TRUE(ros::service::call("mapper_node/save_map", srv));
   ASSERT_TRUE(srv.response.success) << srv.response.message;
-  EXPECT_EQ(srv.response.files.size(), 8u) << "PREFIX.{bt,ot,pgm,yaml,png}, PREFIX_incremental.{pgm,yaml,png}";
+  EXPECT_EQ(srv.response.files.size(), 9u) << "PREFIX.{bt,ot,pcd,pgm,yaml,png}, PREFIX_incremental.{pgm,yaml,png}";
   std::string error;
   auto tree = octo_slice_mapper::loadTree(std::string(kMapsDir) + "/rostest_map.bt", &error);
   ASSERT_TRUE(tree) << error;
@@ -164,6 +167,56 @@ TEST_F(MapperNodeTest, SaveMapWritesLoadableFiles) {
   ASSERT_TRUE(ros::service::call("mapper_node/save_map", srv));
   EXPECT_FALSE(srv.response.success);
   EXPECT_NE(srv.response.message.find("outside maps_dir"), std::string::npos) << srv.response.message;
+}
+
+// ~occupied_voxels carries the voxels the saved .bt holds occupied, each at its centre.
+TEST_F(MapperNodeTest, OccupiedVoxelsCarryWhatTheSavedTreeHolds) {
+  ::mkdir(kMapsDir, 0755);
+  std::vector<sensor_msgs::PointCloud2::ConstPtr> clouds;
+  std::mutex mutex;
+  ros::Subscriber sub = nh_.subscribe<sensor_msgs::PointCloud2>(
+      "mapper_node/occupied_voxels", 5, [&](const sensor_msgs::PointCloud2::ConstPtr& msg) {
+        std::lock_guard<std::mutex> lock(mutex);
+        clouds.push_back(msg);
+      });
+  publishWall(kWallAhead, 5);
+  ASSERT_TRUE(waitFor([&] { std::lock_guard<std::mutex> lock(mutex); return !clouds.empty(); }, 20.0))
+      << "no ~occupied_voxels while someone listens";
+  octo_slice_mapper::SaveMap srv;
+  srv.request.prefix = "rostest_voxels";
+  ASSERT_TRUE(ros::service::call("mapper_node/save_map", srv));
+  ASSERT_TRUE(srv.response.success) << srv.response.message;
+  const ros::Time saved = ros::Time::now();
+  // The save writes the pass's result into the map; a walk that began before the save may be
+  // published just after it, and the next tick (1 s) publishes the map as saved.
+  ros::WallDuration(2.5).sleep();
+  sensor_msgs::PointCloud2::ConstPtr after;
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    after = clouds.back();
+  }
+  ASSERT_GT(after->header.stamp, saved) << "no ~occupied_voxels after the save changed the map";
+  std::string error;
+  auto tree = octo_slice_mapper::loadTree(std::string(kMapsDir) + "/rostest_voxels.bt", &error);
+  ASSERT_TRUE(tree) << error;
+  std::set<std::tuple<int, int, int>> expected, got;
+  for (const auto& v : octo_slice_mapper::occupiedVoxels(*tree)) {
+    const octomap::OcTreeKey k = tree->coordToKey(v.x, v.y, v.z);
+    expected.insert({k[0], k[1], k[2]});
+  }
+  ASSERT_GT(expected.size(), 5u);
+  ASSERT_EQ(after->fields.size(), 4u);
+  EXPECT_EQ(after->fields[3].name, "occupancy");
+  EXPECT_EQ(after->header.frame_id, "odom");
+  sensor_msgs::PointCloud2ConstIterator<float> x(*after, "x"), y(*after, "y"), z(*after, "z"), p(*after, "occupancy");
+  for (; x != x.end(); ++x, ++y, ++z, ++p) {
+    const octomap::OcTreeKey k = tree->coordToKey(*x, *y, *z);
+    EXPECT_NEAR(tree->keyToCoord(k[0]), *x, 1e-4) << "a voxel's centre";
+    EXPECT_GT(*p, 0.5f);
+    got.insert({k[0], k[1], k[2]});
+  }
+  EXPECT_EQ(got.size(), after->width) << "each voxel once";
+  EXPECT_EQ(got, expected) << got.size() << " voxels on ~occupied_voxels, " << expected.size() << " in the .bt";
 }
 
 TEST_F(MapperNodeTest, ResetClearsTheMap) {
@@ -337,7 +390,7 @@ TEST_F(MapperNodeTest, ASaveWritesTheGlobalPassesMapAndTheSliceBesideIt) {
   ASSERT_TRUE(ros::service::waitForService("mapper_node_opt/save_map", 10000));
   ASSERT_TRUE(ros::service::call("mapper_node_opt/save_map", srv));
   ASSERT_TRUE(srv.response.success) << srv.response.message;
-  ASSERT_EQ(srv.response.files.size(), 8u) << srv.response.message;
+  ASSERT_EQ(srv.response.files.size(), 9u) << srv.response.message;
   std::string error;
   auto tree = octo_slice_mapper::loadTree(std::string(kMapsDir) + "/rostest_opt.bt", &error);
   ASSERT_TRUE(tree) << error;

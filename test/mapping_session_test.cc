@@ -60,7 +60,7 @@ TEST_F(MappingSessionTest, SaveWritesTheBestMapAndTheIncrementalSliceBesideIt) {
 
   SaveOutcome saved = session.save(dir_ + "/s", /*with_global_pass=*/false);
   ASSERT_TRUE(saved.ok) << saved.error;
-  EXPECT_EQ(saved.files.size(), 8u);
+  EXPECT_EQ(saved.files.size(), 9u);
   EXPECT_FALSE(saved.optimized);
   std::vector<std::string> written;
   std::string error;
@@ -77,7 +77,7 @@ TEST_F(MappingSessionTest, SaveWritesTheBestMapAndTheIncrementalSliceBesideIt) {
   ASSERT_TRUE(saved.ok) << saved.error;
   ASSERT_TRUE(saved.optimized);
   EXPECT_TRUE(saved.optimized->report.converged);
-  EXPECT_EQ(saved.files.size(), 8u);
+  EXPECT_EQ(saved.files.size(), 9u);
   ASSERT_TRUE(loadPgmYaml(dir_ + "/o.yaml", &best, &error)) << error;
   ASSERT_TRUE(loadPgmYaml(dir_ + "/o_incremental.yaml", &incremental, &error)) << error;
   EXPECT_NE(best.cells, incremental.cells) << "with the pass, PREFIX.* is the pass's map";

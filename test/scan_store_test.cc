@@ -59,6 +59,20 @@ TEST(ScanStore, SkipsScansFromPlacesAlreadyKept) {
   for (int k = 0; k < 10; ++k) EXPECT_TRUE(keep_all.add(scanAt(0.0, 0.0)));
 }
 
+// Two lidars on one base (or one lidar's beams on two topics): the second one's scan from the
+// same place is kept, a repeat of either is not.
+TEST(ScanStore, AnotherLidarAtTheSamePlaceIsNoRevisit) {
+  ScanStore store;
+  const auto pose = laserPoseOnRobot(1.0, 0.0, 0.0);
+  const Scan first_half = makeScan(pose, -1.0f, 0.01f, std::vector<float>(100, 2.0f));
+  const Scan second_half = makeScan(pose, 0.0f, 0.01f, std::vector<float>(101, 2.0f));
+  EXPECT_TRUE(store.add(first_half));
+  EXPECT_TRUE(store.add(second_half));
+  EXPECT_FALSE(store.add(first_half));
+  EXPECT_FALSE(store.add(second_half));
+  EXPECT_EQ(store.skippedAsRevisit(), 2u);
+}
+
 TEST(ScanStore, BoundedByThinningUniformly) {
   ScanStoreOptions options;
   options.max_scans = 8;

@@ -1,4 +1,5 @@
-// Saving and loading maps: OctoMap .bt/.ot, map_server .pgm/.yaml, and a .png picture.
+// Saving and loading maps: OctoMap .bt/.ot, map_server .pgm/.yaml, a .png picture, and the
+// occupied voxels as a PCL .pcd point cloud.
 #pragma once
 
 #include <octomap/OcTree.h>
@@ -51,6 +52,21 @@ bool loadPgmYaml(const std::string& yaml_path, GridImage* grid, std::string* err
 // light blue-grey, north up.
 bool savePng(const GridImage& grid, const std::string& path, std::string* error);
 
+// An occupied voxel of the octree at its resolution: its centre and occupancy probability.
+struct OccupiedVoxel {
+  float x, y, z;
+  float probability;
+};
+// Every occupied voxel of `tree` (occupied by the tree's own threshold, as a .bt export keeps
+// it), one per leaf-sized voxel: a pruned node stands for each leaf it holds, with its
+// probability. In the tree's leaf order.
+std::vector<OccupiedVoxel> occupiedVoxels(const octomap::OcTree& tree);
+// `voxels` as a PCL point cloud file: fields x, y, z, occupancy (FLOAT32), binary, the header
+// written by PCL's PCDWriter (pcl_viewer, CloudCompare and pcl::io::loadPCDFile read it).
+bool addPointCloud(const std::vector<OccupiedVoxel>& voxels, const std::string& path, FileSet* files,
+                   std::string* error);
+bool savePointCloud(const std::vector<OccupiedVoxel>& voxels, const std::string& path, std::string* error);
+
 // The same formats serialised into a FileSet, to be written together with writeFilesAtomically
 // (atomic_file.h): all or none of a set's files replace what was there.
 bool addBinaryTree(const octomap::OcTree& tree, const std::string& path, FileSet* files, std::string* error);
@@ -59,7 +75,7 @@ bool addPgmYaml(const GridImage& grid, const std::string& prefix, FileSet* files
                 const PgmOptions& options = {});
 bool addPng(const GridImage& grid, const std::string& path, FileSet* files, std::string* error);
 
-// Writes PREFIX.bt, .ot (from `tree`), .pgm, .yaml and .png (from `grid`) and, given
+// Writes PREFIX.bt, .ot, .pcd (from `tree`), .pgm, .yaml and .png (from `grid`) and, given
 // `incremental`, PREFIX_incremental.{pgm,yaml,png} from it, as one set: on any failure none of
 // them replaces the previous file. Appends the files written. Every file carries the set's save
 // id (a hash of the set's content; see readSaveId).
@@ -69,7 +85,7 @@ bool saveMapSet(const octomap::OcTree& tree, const GridImage& grid, const std::s
 // The save id a file of a set carries: 16 hex digits, "" if it has none (or cannot be read).
 std::string readSaveId(const std::string& path);
 
-// The files of PREFIX's set that exist (PREFIX.bt, .ot, .pgm, .yaml, .png and
+// The files of PREFIX's set that exist (PREFIX.bt, .ot, .pcd, .pgm, .yaml, .png and
 // PREFIX_incremental.pgm, .yaml, .png), each with its save id.
 // Each file is renamed into place whole, but a kill between the renames of one save leaves files
 // of the new set beside the previous set's: then their ids differ.
@@ -79,7 +95,7 @@ struct MapSetCheck {
   std::string describe() const;  // which files come from which save, e.g. "map.bt map.ot are from save 1f…; map.png …"
 };
 MapSetCheck checkMapSet(const std::string& prefix);
-// PATH without the ending of a set's file (.bt, .ot, .pgm, .yaml, .png, _incremental.pgm, ...), or
+// PATH without the ending of a set's file (.bt, .ot, .pcd, .pgm, .yaml, .png, _incremental.pgm, ...), or
 // PATH unchanged.
 std::string mapSetPrefixOf(const std::string& path);
 

@@ -102,7 +102,7 @@ class Mapper {
   // Replaces the map by a saved .bt/.ot (resolution taken from the file). On failure the
   // current map is kept and false is returned with the reason.
   bool load(const std::string& path, std::string* error);
-  // Writes PREFIX.{bt,ot,pgm,yaml,png} and PREFIX_incremental.{pgm,yaml,png}: both the incremental
+  // Writes PREFIX.{bt,ot,pcd,pgm,yaml,png} and PREFIX_incremental.{pgm,yaml,png}: both the incremental
   // map here (MappingSession::save runs the global pass for PREFIX.*).
   bool save(const std::string& prefix, std::vector<std::string>* written, std::string* error);
 
@@ -134,7 +134,8 @@ class Mapper {
   // Brings the octree up to date and lends it (see MapSnapshot) until endSnapshot(). Reading the
   // lent octree from another thread is safe while this thread keeps inserting; reset(), load()
   // and applyOptimized() are refused meanwhile.
-  MapSnapshot snapshot(bool with_scans);
+  // Without `with_slice`, the snapshot's slice and band stay empty (a reader of the octree alone).
+  MapSnapshot snapshot(bool with_scans, bool with_slice = true);
   void endSnapshot();
   // What the global pass reads (the slice, its band, the kept scans), copied without the octree:
   // unlike snapshot() it neither flushes the insertion cache nor lends anything (tree is null).

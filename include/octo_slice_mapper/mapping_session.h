@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "octo_slice_mapper/map_io.h"
 #include "octo_slice_mapper/mapper.h"
 #include "octo_slice_mapper/online_optimizer.h"
 
@@ -63,7 +64,7 @@ class MappingSession {
   InsertResult insertPrepared(PreparedCloud prepared, std::uint64_t map_generation, const SensorCloud& cloud,
                               double* waited_ms = nullptr);
 
-  // Writes PREFIX.{bt,ot,pgm,yaml,png}, the best map, and PREFIX_incremental.{pgm,yaml,png}, the
+  // Writes PREFIX.{bt,ot,pcd,pgm,yaml,png}, the best map, and PREFIX_incremental.{pgm,yaml,png}, the
   // incremental slice, as one set (saveBestMapSet). With `with_global_pass` (the node gives
   // optimize_on_save) and kept scans, the best map is the global pass's, and the result goes into
   // the map when `write_optimized_into_map`; otherwise it is the incremental map. PREFIX is used
@@ -72,6 +73,10 @@ class MappingSession {
   // The global pass over the kept scans, applied to the map (if write_optimized_into_map);
   // nothing when no scans are kept.
   std::optional<OptimizedMap> optimize(bool warm_start, const ProgressFn& progress = {});
+  // The occupied voxels (occupiedVoxels, map_io.h) of the map as it is now, and changes() as of
+  // them. The octree is walked outside the lock (lent, as a save lends it), so insertion goes on
+  // meanwhile. False, with nothing done, while a save, pass, reset or load runs: ask again later.
+  bool occupiedVoxels(std::vector<OccupiedVoxel>* voxels, std::uint64_t* changes);
   void reset();
   bool load(const std::string& path, std::string* error);
   // Mapper::reconfigure, waiting for a running save; false with the reason for impossible values

@@ -1,5 +1,7 @@
 #include "octo_slice_mapper/map_io.h"
 
+#include <pcl/PCLPointCloud2.h>
+#include <pcl/io/pcd_io.h>
 #include <png.h>
 #include <unistd.h>
 #include <zlib.h>
@@ -126,6 +128,73 @@ bool addBinaryTree(const octomap::OcTree& tree, const std::string& path, FileSet
   }
   files->emplace_back(path, out.str());
   return true;
+}
+
+std::vector<OccupiedVoxel> occupiedVoxels(const octomap::OcTree& tree) {
+  std::vector<OccupiedVoxel> voxels;
+  const unsigned depth = tree.getTreeDepth();
+  for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it) {
+    if (!tree.isNodeOccupied(*it)) continue;
+    const float probability = static_cast<float>(it->getOccupancy());
+    // A node `level` levels above the leaves holds 2^level leaves per axis around its key.
+    const unsigned level = depth - it.getDepth();
+    const octomap::OcTreeKey key = it.getKey();
+    const unsigned span = 1u << level, half = level ? span / 2 : 0;
+    for (unsigned i = 0; i < span; ++i) {
+      for (unsigned j = 0; j < span; ++j) {
+        for (unsigned k = 0; k < span; ++k) {
+          const octomap::OcTreeKey leaf(static_cast<octomap::key_type>(key[0] - half + i),
+                                        static_cast<octomap::key_type>(key[1] - half + j),
+                                        static_cast<octomap::key_type>(key[2] - half + k));
+          voxels.push_back({static_cast<float>(tree.keyToCoord(leaf[0])), static_cast<float>(tree.keyToCoord(leaf[1])),
+                            static_cast<float>(tree.keyToCoord(leaf[2])), probability});
+        }
+      }
+    }
+  }
+  return voxels;
+}
+
+bool addPointCloud(const std::vector<OccupiedVoxel>& voxels, const std::string& path, FileSet* files,
+                   std::string* error) {
+  static_assert(sizeof(OccupiedVoxel) == 16, "four packed floats, as the fields declare");
+  pcl::PCLPointCloud2 cloud;
+  cloud.width = static_cast<std::uint32_t>(voxels.size());
+  cloud.height = 1;
+  cloud.is_dense = true;
+  cloud.point_step = sizeof(OccupiedVoxel);
+  cloud.row_step = cloud.point_step * cloud.width;
+  const char* names[] = {"x", "y", "z", "occupancy"};
+  for (std::uint32_t f = 0; f < 4; ++f) {
+    pcl::PCLPointField field;
+    field.name = names[f];
+    field.offset = 4 * f;
+    field.datatype = pcl::PCLPointField::FLOAT32;
+    field.count = 1;
+    cloud.fields.push_back(field);
+  }
+  // PCL's own header; the data follow it as PCDWriter::writeBinary puts them (the points packed).
+  pcl::PCDWriter writer;
+  std::string bytes;
+  try {
+    bytes = writer.generateHeaderBinary(cloud, Eigen::Vector4f::Zero(), Eigen::Quaternionf::Identity());
+  } catch (const std::exception& e) {
+    *error = "PCL could not write the header of " + path + ": " + e.what();
+    return false;
+  }
+  if (bytes.empty() || bytes[0] != '#') {  // the save id goes after the first line, a comment
+    *error = "PCL wrote an unexpected header for " + path;
+    return false;
+  }
+  bytes += "DATA binary\n";  // as PCDWriter::writeBinary ends the header
+  bytes.append(reinterpret_cast<const char*>(voxels.data()), voxels.size() * sizeof(OccupiedVoxel));
+  files->emplace_back(path, std::move(bytes));
+  return true;
+}
+
+bool savePointCloud(const std::vector<OccupiedVoxel>& voxels, const std::string& path, std::string* error) {
+  FileSet files;
+  return addPointCloud(voxels, path, &files, error) && writeFilesAtomically(files, nullptr, error);
 }
 
 bool addFullTree(const octomap::OcTree& tree, const std::string& path, FileSet* files, std::string* error) {
@@ -433,7 +502,7 @@ bool savePng(const GridImage& grid, const std::string& path, std::string* error)
 namespace {
 
 // The endings of a set's files; mapSetPrefixOf tries them from the last (the longest) on.
-const char* const kSetExtensions[] = {".bt", ".ot", ".pgm", ".yaml", ".png", "_incremental.pgm", "_incremental.yaml",
+const char* const kSetExtensions[] = {".bt", ".ot", ".pcd", ".pgm", ".yaml", ".png", "_incremental.pgm", "_incremental.yaml",
                                       "_incremental.png"};
 const char kSaveIdTag[] = "save_id";
 constexpr std::size_t kSaveIdLength = 16;  // hex digits of a 64-bit hash
@@ -491,6 +560,7 @@ bool saveMapSet(const octomap::OcTree& tree, const GridImage& grid, const std::s
                 std::vector<std::string>* written, std::string* error, const GridImage* incremental) {
   FileSet files;
   if (!addBinaryTree(tree, prefix + ".bt", &files, error) || !addFullTree(tree, prefix + ".ot", &files, error) ||
+      !addPointCloud(occupiedVoxels(tree), prefix + ".pcd", &files, error) ||
       !addPgmYaml(grid, prefix, &files, error) || !addPng(grid, prefix + ".png", &files, error)) {
     return false;
   }

@@ -195,9 +195,14 @@ OptimizedMap Mapper::optimize(bool warm_start, const ProgressFn& progress) const
                        progress);
 }
 
-MapSnapshot Mapper::snapshot(bool with_scans) {
+MapSnapshot Mapper::snapshot(bool with_scans, bool with_slice) {
   if (lent_) throw std::logic_error("mapper: the octree is already lent");
-  MapSnapshot snap = sliceAndScans(with_scans);
+  MapSnapshot snap;
+  if (with_slice) {
+    snap = sliceAndScans(with_scans);
+  } else if (with_scans) {
+    snap.scans = store_.scans();
+  }
   snap.tree = &tree();
   lent_ = true;
   inserter_->cache().holdEverything(true);  // the lent octree must not change

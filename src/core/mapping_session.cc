@@ -120,6 +120,27 @@ SaveOutcome MappingSession::save(const std::string& prefix, bool with_global_pas
   return out;
 }
 
+bool MappingSession::occupiedVoxels(std::vector<OccupiedVoxel>* voxels, std::uint64_t* changes) {
+  std::unique_lock<std::mutex> one(one_at_a_time_, std::try_to_lock);
+  if (!one.owns_lock()) return false;
+  MapSnapshot snapshot;
+  {
+    Lock lock(this);
+    snapshot = mapper_.snapshot(/*with_scans=*/false, /*with_slice=*/false);
+    *changes = changes_;
+  }
+  try {
+    *voxels = octo_slice_mapper::occupiedVoxels(*snapshot.tree);
+  } catch (...) {
+    Lock lock(this);
+    mapper_.endSnapshot();
+    throw;
+  }
+  Lock lock(this);
+  mapper_.endSnapshot();
+  return true;
+}
+
 std::optional<OptimizedMap> MappingSession::optimize(bool warm_start, const ProgressFn& progress) {
   std::lock_guard<std::mutex> one(one_at_a_time_);
   MapSnapshot input;

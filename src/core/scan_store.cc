@@ -1,5 +1,7 @@
 #include "octo_slice_mapper/internal/scan_store.h"
 
+#include <cstring>
+
 #include <cmath>
 
 namespace octo_slice_mapper {
@@ -17,21 +19,34 @@ Scan StoredScan::toScan() const {
   return scan;
 }
 
-// Position and heading (of the laser's x axis, in the map's x-y plane) quantised into one key.
-std::uint64_t ScanStore::revisitBin(const Eigen::Vector3f& origin, const Eigen::Quaternionf& rotation) const {
+// Position and heading (of the laser's x axis, in the map's x-y plane) quantised into one key,
+// mixed with where the scan's beams lie in the laser's frame (its first angle and count): two
+// lidars on one base, or a lidar's beams split over two topics, share a position and may share a
+// heading, but not the beams. One lidar's scans all have the same beams, and so the same mix.
+std::uint64_t ScanStore::revisitBin(const Eigen::Vector3f& origin, const Eigen::Quaternionf& rotation,
+                                    float angle_min, std::size_t beams) const {
   const Eigen::Vector3f axis = rotation * Eigen::Vector3f::UnitX();
   auto bin = [](double v, double size) {
     return static_cast<std::uint64_t>(static_cast<std::int64_t>(std::floor(v / size)) & 0x1FFFFF);
   };
-  return bin(origin.x(), options_.revisit_cell) | bin(origin.y(), options_.revisit_cell) << 21 |
-         bin(std::atan2(axis.y(), axis.x()) + M_PI, options_.revisit_angle) << 42;
+  std::uint32_t angle_bits = 0;
+  std::memcpy(&angle_bits, &angle_min, sizeof angle_bits);
+  std::uint64_t beams_mix = (std::uint64_t{angle_bits} << 32 | static_cast<std::uint32_t>(beams)) * 0x9E3779B97F4A7C15ull;
+  beams_mix ^= beams_mix >> 29;
+  return (bin(origin.x(), options_.revisit_cell) | bin(origin.y(), options_.revisit_cell) << 21 |
+          bin(std::atan2(axis.y(), axis.x()) + M_PI, options_.revisit_angle) << 42) ^
+         beams_mix;
+}
+
+std::uint64_t ScanStore::revisitBinOf(const StoredScan& s) const {
+  return revisitBin(s.origin, s.rotation, s.angle_min, s.ranges.size());
 }
 
 bool ScanStore::add(const Scan& scan) {
   const Eigen::Vector3f origin = scan.sensor_pose.translation().cast<float>();
   const Eigen::Quaternionf rotation(scan.sensor_pose.linear().cast<float>());
   const bool revisits = options_.revisit_cell > 0.0 && options_.revisit_angle > 0.0 && origin.allFinite();
-  const std::uint64_t bin = revisits ? revisitBin(origin, rotation) : 0;
+  const std::uint64_t bin = revisits ? revisitBin(origin, rotation, scan.angle_min, scan.ranges.size()) : 0;
   if (revisits && visited_.count(bin)) {
     ++revisits_;
     return false;
@@ -55,7 +70,7 @@ bool ScanStore::add(const Scan& scan) {
     ++rewrites_;
     visited_.clear();  // places of dropped scans may be kept again
     if (revisits) {
-      for (const StoredScan& s : scans_) visited_.insert(revisitBin(s.origin, s.rotation));
+      for (const StoredScan& s : scans_) visited_.insert(revisitBinOf(s));
     }
   }
   if (revisits) visited_.insert(bin);
@@ -78,7 +93,7 @@ std::size_t ScanStore::removeIf(const std::function<bool(const StoredScan&)>& dr
     visited_.clear();
     for (const StoredScan& s : scans_) {
       if (options_.revisit_cell > 0.0 && options_.revisit_angle > 0.0 && s.origin.allFinite()) {
-        visited_.insert(revisitBin(s.origin, s.rotation));
+        visited_.insert(revisitBinOf(s));
       }
     }
   }

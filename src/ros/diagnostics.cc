@@ -76,6 +76,12 @@ diagnostic_msgs::DiagnosticArray toDiagnostics(const NodeCounters& c, const Node
   add("scans_missed", std::to_string(c.scans_missed));
   add("clouds_missed", std::to_string(c.clouds_missed));
   for (const auto& kv : c.skipped) add("skipped_" + kv.first, std::to_string(kv.second));
+  for (const auto& kv : c.topics) {
+    const TopicCounters& t = kv.second;
+    add(kv.first + " received", std::to_string(t.received));
+    add(kv.first + " inserted", std::to_string(t.inserted));
+    add(kv.first + " missed", std::to_string(t.missed));
+  }
   add("waiting_for_tf", std::to_string(c.waiting_for_tf));
   add("time_jumps_back", std::to_string(c.time_jumps_back));
   add("scans_held_for_order", std::to_string(c.scans_held_for_order));

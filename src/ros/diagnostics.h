@@ -12,6 +12,13 @@
 namespace octo_slice_mapper {
 namespace ros_adapter {
 
+// One input topic's own counts (a robot with several lidars sees which one stopped or drops).
+struct TopicCounters {
+  std::string kind;  // "scan" or "point cloud"
+  std::uint64_t received = 0, inserted = 0;
+  std::uint64_t missed = 0, lost = 0;  // as NodeCounters' below, for this topic alone
+};
+
 struct NodeCounters {
   std::uint64_t scans_received = 0;  // by the subscriber, before waiting for tf
   std::uint64_t scans_inserted = 0;
@@ -22,6 +29,7 @@ struct NodeCounters {
   // late (what the log and the status warn of; not a /diagnostics value of its own).
   std::uint64_t scans_lost = 0, clouds_lost = 0;
   std::map<std::string, std::uint64_t> skipped;  // whole scans dropped, per reason
+  std::map<std::string, TopicCounters> topics;    // per input topic (resolved name); the sums above
   std::uint64_t time_jumps_back = 0;
   // Delivered by the tf filter ahead of an earlier scan, and held until that one's turn.
   std::uint64_t scans_held_for_order = 0;

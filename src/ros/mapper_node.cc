@@ -87,9 +87,10 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
     ROS_INFO("removed %zu temporary files a killed save had left in %s", stale, options_.maps_dir.c_str());
   }
   diagnostics_pub_ = nh_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 5);
-  connect("scan", static_cast<std::uint32_t>(std::max(1, options_.scan_queue_size)),
-          ros::TransportHints().tcpNoDelay(), &scans_);
-  connect("cloud_in", 5, ros::TransportHints(), &clouds_);
+  connectAll(options_.scan_topics, static_cast<std::uint32_t>(std::max(1, options_.scan_queue_size)),
+             ros::TransportHints().tcpNoDelay(), &scans_);
+  connectAll(options_.cloud_topics, 5, ros::TransportHints(), &clouds_);
+  if (scans_.empty() && clouds_.empty()) ROS_WARN("~scan_topics and ~cloud_topics are both empty: nothing to map");
   expire_timer_ = nh_.createWallTimer(ros::WallDuration(0.05), &MapperNode::expireTick, this);
   // Wall-clock periods: what they pace is work and bandwidth, which a bag replayed at 20x must not
   // multiply (on ROS time both fired 20 times as often, and the diagnostics' tree walks took an
@@ -109,6 +110,8 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
         },
         [this](const nav_msgs::OccupancyGrid& grid) { publisher_.publishBest(grid); });
   }
+  voxels_publisher_ =
+      std::make_unique<OccupiedVoxelsPublisher>(pnh_, &session_, options_.frame_id, options_.occupied_voxels_period);
   cloud_pipeline_ = std::make_unique<CloudPipeline>(&session_, static_cast<unsigned>(std::max(0, options_.cloud_threads)),
                                                     /*max_pending=*/4);
   services_ = std::make_unique<MapperServices>(nh_, pnh_, options_, &session_, &publisher_, online_pass_.get());
@@ -117,6 +120,21 @@ MapperNode::MapperNode(ros::NodeHandle nh, ros::NodeHandle pnh)
       std::function<void()>());
   ROS_INFO("mapping in frame '%s' at %.3f m, slice z [%.2f, %.2f] m", options_.frame_id.c_str(), mapper.resolution,
            mapper.slice.min_z, mapper.slice.max_z);
+}
+
+template <typename M>
+void MapperNode::connectAll(const std::string& topics, std::uint32_t queue, const ros::TransportHints& hints,
+                            std::vector<std::unique_ptr<Input<M>>>* inputs) {
+  for (const std::string& topic : topicNames(topics)) {
+    inputs->push_back(std::make_unique<Input<M>>());
+    Input<M>* input = inputs->back().get();
+    input->topic = nh_.resolveName(topic);
+    {
+      std::lock_guard<std::mutex> lock(counters_mutex_);
+      counters_.topics[input->topic].kind = Kind<M>::kName;
+    }
+    connect(topic, queue, hints, input);
+  }
 }
 
 template <typename M>
@@ -132,9 +150,14 @@ void MapperNode::connect(const std::string& topic, std::uint32_t queue, const ro
         // gone on past it: a gap that a late message fills is no loss.
         input->sequence.add(event.getPublisherName(), msg->header.seq);
         std::lock_guard<std::mutex> lock(counters_mutex_);
+        TopicCounters& own = counters_.topics[input->topic];
+        const std::uint64_t missed_before = own.missed, lost_before = own.lost;
+        own.received++;
+        own.missed = input->sequence.missed();  // (a late one is taken back)
+        own.lost = input->sequence.settled();
         Kind<M>::received(counters_)++;
-        Kind<M>::missed(counters_) = input->sequence.missed();  // (a late one is taken back)
-        Kind<M>::lost(counters_) = input->sequence.settled();
+        Kind<M>::missed(counters_) += own.missed - missed_before;  // unsigned: wraps back as it must
+        Kind<M>::lost(counters_) += own.lost - lost_before;
       }));
   // No tolerance: a message is handled as soon as its transform exists (a tolerance would hold
   // every one back until tf runs that far ahead of it).
@@ -186,11 +209,11 @@ bool MapperNode::stampedZero(const std_msgs::Header& header) {
 }
 
 void MapperNode::expireTick(const ros::WallTimerEvent&) {
-  expireWaiting(&scans_);
-  expireWaiting(&clouds_);
+  for (auto& input : scans_) expireWaiting(input.get());
+  for (auto& input : clouds_) expireWaiting(input.get());
   // A message given up no longer holds back the ones that arrived after it.
-  handleReady(&scans_);
-  handleReady(&clouds_);
+  for (auto& input : scans_) handleReady(input.get());
+  for (auto& input : clouds_) handleReady(input.get());
 }
 
 template <typename M>
@@ -213,7 +236,7 @@ void MapperNode::handleReady(Input<M>* input) {
     std::lock_guard<std::mutex> lock(counters_mutex_);
     counters_.scans_taken_over += taken_over;
   }
-  for (const auto& r : ready) insert(r.msg, r.pose);
+  for (const auto& r : ready) insert(r.msg, r.pose, input->topic);
 }
 
 // Messages still waiting for their transform after ~transform_timeout are given up and counted
@@ -297,7 +320,7 @@ void MapperNode::checkTimeJump(const ros::Time& stamp) {
 }
 
 template <typename M>
-void MapperNode::insert(const boost::shared_ptr<const M>& msg, const Eigen::Isometry3d& pose) {
+void MapperNode::insert(const boost::shared_ptr<const M>& msg, const Eigen::Isometry3d& pose, const std::string& topic) {
   if (stampedZero(msg->header)) return;
   checkTimeJump(msg->header.stamp);
   typename Kind<M>::Core core;
@@ -310,7 +333,8 @@ void MapperNode::insert(const boost::shared_ptr<const M>& msg, const Eigen::Isom
   if constexpr (std::is_same_v<M, sensor_msgs::PointCloud2>) {
     // Converted and prepared on the pipeline's workers, frames in parallel, applied in arrival
     // order; this thread goes back to the scans (it waits only when frames pile up).
-    cloud_pipeline_->submit(std::move(core), [this, stamp](const CloudPipeline::Outcome& o) { inserted<M>(o, stamp); });
+    cloud_pipeline_->submit(std::move(core),
+                            [this, stamp, &topic](const CloudPipeline::Outcome& o) { inserted<M>(o, stamp, topic); });
   } else {
     CloudPipeline::Outcome outcome;
     const ros::WallTime start = ros::WallTime::now();
@@ -318,12 +342,12 @@ void MapperNode::insert(const boost::shared_ptr<const M>& msg, const Eigen::Isom
     outcome.result = session_.insert(core, &outcome.waited_ms);
     outcome.work_seconds = outcome.seconds = (ros::WallTime::now() - start).toSec();
     outcome.cpu_seconds = threadCpuSeconds() - cpu_start;
-    inserted<M>(outcome, stamp);
+    inserted<M>(outcome, stamp, topic);
   }
 }
 
 template <typename M>
-void MapperNode::inserted(const CloudPipeline::Outcome& outcome, const ros::Time& stamp) {
+void MapperNode::inserted(const CloudPipeline::Outcome& outcome, const ros::Time& stamp, const std::string& topic) {
   const InsertResult& result = outcome.result;
   if (!result.ok()) {
     skip(Kind<M>::kInvalid, result.error);
@@ -336,6 +360,7 @@ void MapperNode::inserted(const CloudPipeline::Outcome& outcome, const ros::Time
   }
   std::lock_guard<std::mutex> lock(counters_mutex_);
   Kind<M>::inserted(counters_)++;
+  counters_.topics[topic].inserted++;
   Kind<M>::seconds(counters_) += outcome.work_seconds;
   Kind<M>::cpuSeconds(counters_) += outcome.cpu_seconds;
   counters_.last_insert_ms = 1000.0 * outcome.seconds;
@@ -359,7 +384,8 @@ void MapperNode::publishDiagnostics(const ros::WallTimerEvent&) {
   });
   c.longest_service_lock_ms = session_.longestLockMs();
   c.longest_service_lock_cpu_ms = session_.longestLockCpuMs();
-  c.waiting_for_tf = scans_.waiting.waiting();  // this timer runs on the same queue as the scans
+  c.waiting_for_tf = 0;  // this timer runs on the same queue as the scans
+  for (const auto& input : scans_) c.waiting_for_tf += input->waiting.waiting();
   if (online_pass_) {
     const OnlinePassStats online = online_pass_->stats();
     c.online_passes = online.passes;
@@ -395,6 +421,7 @@ void MapperNode::shutdown() {
   reconfigure_.reset();
   services_->stop();
   online_pass_.reset();  // waits for a running pass
+  voxels_publisher_.reset();
   services_->saveOnShutdown();
   std::fprintf(stderr, "[mapper_node] session summary: %s\n", summary().c_str());
 }

@@ -16,6 +16,7 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <vector>
 
 #include "octo_slice_mapper/cloud_pipeline.h"
 #include "octo_slice_mapper/mapping_session.h"
@@ -24,6 +25,7 @@
 #include "ros/map_publisher.h"
 #include "ros/mapper_services.h"
 #include "ros/node_parameters.h"
+#include "ros/occupied_voxels_publisher.h"
 #include "ros/online_pass.h"
 #include "ros/pending_messages.h"
 #include "ros/tf_listener.h"
@@ -43,18 +45,23 @@ class MapperNode {
   // One input topic (scans or clouds): subscriber, tf filter, and the messages waiting in order.
   template <typename M>
   struct Input {
+    std::string topic;  // as resolved
     message_filters::Subscriber<M> subscriber;
     std::unique_ptr<tf2_ros::MessageFilter<M>> filter;
     PendingMessages<M, Eigen::Isometry3d> waiting;
     SequenceGaps sequence;  // what never arrived
   };
+  // One input per topic of `topics` (topicNames), each subscribed with its own tf filter.
+  template <typename M>
+  void connectAll(const std::string& topics, std::uint32_t queue, const ros::TransportHints& hints,
+                  std::vector<std::unique_ptr<Input<M>>>* inputs);
   template <typename M>
   void connect(const std::string& topic, std::uint32_t queue, const ros::TransportHints& hints, Input<M>* input);
   // Inserts the messages whose turn it is (see PendingMessages).
   template <typename M>
   void handleReady(Input<M>* input);
   template <typename M>
-  void insert(const boost::shared_ptr<const M>& msg, const Eigen::Isometry3d& pose);
+  void insert(const boost::shared_ptr<const M>& msg, const Eigen::Isometry3d& pose, const std::string& topic);
   template <typename M>
   bool transformThere(const boost::shared_ptr<const M>& msg);
   // The sensor's pose at the message's stamp, if tf has it (without the cost of an exception if not).
@@ -71,7 +78,7 @@ class MapperNode {
   // After a message's insertion (on a cloud worker for clouds): its counters, and the map's
   // change published.
   template <typename M>
-  void inserted(const CloudPipeline::Outcome& outcome, const ros::Time& stamp);
+  void inserted(const CloudPipeline::Outcome& outcome, const ros::Time& stamp, const std::string& topic);
   void skip(const std::string& reason, const std::string& message);
   // A message stamped 0 is skipped as zero_stamp (true).
   bool stampedZero(const std_msgs::Header& header);
@@ -85,8 +92,8 @@ class MapperNode {
   MappingSession session_;
   tf2_ros::Buffer tf_buffer_;
   TfListener tf_listener_;
-  Input<sensor_msgs::LaserScan> scans_;
-  Input<sensor_msgs::PointCloud2> clouds_;
+  std::vector<std::unique_ptr<Input<sensor_msgs::LaserScan>>> scans_;  // one per scan topic
+  std::vector<std::unique_ptr<Input<sensor_msgs::PointCloud2>>> clouds_;
   MapPublisher publisher_;
   ros::Publisher diagnostics_pub_;
   ros::WallTimer publish_timer_, diagnostics_timer_;
@@ -100,6 +107,7 @@ class MapperNode {
   ros::WallTime started_;
   // Last: their threads use the session and the publisher until they are destroyed.
   std::unique_ptr<OnlinePass> online_pass_;
+  std::unique_ptr<OccupiedVoxelsPublisher> voxels_publisher_;
   std::unique_ptr<MapperServices> services_;
   std::unique_ptr<LiveReconfigure> reconfigure_;
   std::unique_ptr<CloudPipeline> cloud_pipeline_;  // first destroyed: its workers publish and count

@@ -3,6 +3,8 @@
 #include <ros/package.h>
 
 #include <algorithm>
+#include <variant>
+#include <vector>
 
 namespace octo_slice_mapper {
 namespace ros_adapter {
@@ -10,6 +12,21 @@ namespace {
 
 // Reads ~NAME into the field, keeping its value as the default.
 void readParameter(const ros::NodeHandle& pnh, const char* name, const OptionField& field) {
+  // A list of names (the topic lists) into a string option: its items separated by spaces.
+  XmlRpc::XmlRpcValue list;
+  if (std::holds_alternative<std::string*>(field) && pnh.getParam(name, list) &&
+      list.getType() == XmlRpc::XmlRpcValue::TypeArray) {
+    std::string joined;
+    for (int i = 0; i < list.size(); ++i) {
+      if (list[i].getType() == XmlRpc::XmlRpcValue::TypeString) {
+        joined += (joined.empty() ? "" : " ") + static_cast<std::string>(list[i]);
+      } else {
+        ROS_WARN("~%s: item %d is not a string: left out", name, i);
+      }
+    }
+    *std::get<std::string*>(field) = joined;
+    return;
+  }
   struct Read {
     const ros::NodeHandle& pnh;
     const char* name;
@@ -39,10 +56,16 @@ void readParameter(const ros::NodeHandle& pnh, const char* name, const OptionFie
 const std::vector<OptionSpec<NodeOptions>>& nodeOptionTable() {
   using O = NodeOptions;
   static const std::vector<OptionSpec<NodeOptions>> table = {
+      {"scan_topics", "", "LaserScan topics, one per lidar (a list, or names separated by spaces)",
+       [](O& o) -> OptionField { return &o.scan_topics; }},
+      {"cloud_topics", "", "PointCloud2 topics, one per depth camera (a list, or names separated by spaces)",
+       [](O& o) -> OptionField { return &o.cloud_topics; }},
       {"frame_id", "", "fixed frame of the map", [](O& o) -> OptionField { return &o.frame_id; }},
       {"publish_rate", "Hz", "the whole map is published this often when it changed",
        [](O& o) -> OptionField { return &o.publish_rate; }, true},
       {"publish_markers", "", "publish ~occupied_cells", [](O& o) -> OptionField { return &o.publish_markers; }},
+      {"occupied_voxels_period", "s", "~occupied_voxels is published at most this often, when the map changed and someone listens",
+       [](O& o) -> OptionField { return &o.occupied_voxels_period; }},
       {"transform_timeout", "s", "how long a message may wait for its transform",
        [](O& o) -> OptionField { return &o.transform_timeout; }},
       {"scan_queue_size", "", "scans queued for the node and held while waiting for tf (a full queue drops the oldest)", [](O& o) -> OptionField { return &o.scan_queue_size; }},
@@ -65,6 +88,21 @@ const std::vector<OptionSpec<NodeOptions>>& nodeOptionTable() {
        [](O& o) -> OptionField { return &o.cloud_threads; }},
   };
   return table;
+}
+
+std::vector<std::string> topicNames(const std::string& list) {
+  std::vector<std::string> names;
+  std::string name;
+  for (std::size_t k = 0; k <= list.size(); ++k) {
+    const char c = k < list.size() ? list[k] : ' ';
+    if (c != ' ' && c != ',' && c != '\t' && c != '\n') {
+      name += c;
+      continue;
+    }
+    if (!name.empty() && std::find(names.begin(), names.end(), name) == names.end()) names.push_back(name);
+    name.clear();
+  }
+  return names;
 }
 
 MapperOptions readMapperOptions(const ros::NodeHandle& pnh) {

@@ -5,6 +5,7 @@
 #include <ros/node_handle.h>
 
 #include <string>
+#include <vector>
 
 #include "octo_slice_mapper/mapper.h"
 #include "octo_slice_mapper/option_table.h"
@@ -13,9 +14,17 @@ namespace octo_slice_mapper {
 namespace ros_adapter {
 
 struct NodeOptions {
+  // The input topics, resolved in the node's namespace: names separated by spaces or commas (a
+  // YAML list is read the same). Each is subscribed to on its own, placed with its own frame
+  // through tf2 and counted on its own on /diagnostics; all go into one map in arrival order.
+  std::string scan_topics = "scan";       // sensor_msgs/LaserScan
+  std::string cloud_topics = "cloud_in";  // sensor_msgs/PointCloud2
   std::string frame_id = "odom";     // fixed frame the map is built in (the odometry is the pose oracle)
   double publish_rate = 2.0;         // Hz, map / markers publishing when something changed
   bool publish_markers = true;       // ~occupied_cells
+  // s (wall): ~occupied_voxels is published at most this often, when the map changed and someone
+  // listens (a walk of the whole octree, on its own thread).
+  double occupied_voxels_period = 1.0;
   double transform_timeout = 0.5;    // s (wall), how long a scan may wait for its transform
   // Scans ROS queues for the node and the tf filter holds while waiting for tf. ROS drops the oldest
   // of a full queue silently: 200 is 5 s of a 40 Hz lidar, 1 s of a 10 Hz log replayed at 20x
@@ -41,6 +50,9 @@ struct NodeOptions {
 // The node's own options, named once like the mapper's (option_table.h); maps_dir's default is
 // the package's maps/ folder.
 const std::vector<OptionSpec<NodeOptions>>& nodeOptionTable();
+
+// The names of a topic list (scan_topics, cloud_topics), in order, without repeats.
+std::vector<std::string> topicNames(const std::string& list);
 
 // Every option of both tables read as a private parameter.
 MapperOptions readMapperOptions(const ros::NodeHandle& pnh);

@@ -1,5 +1,7 @@
 #include "bag_scans.h"
 
+#include <set>
+
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 #include <sensor_msgs/LaserScan.h>
@@ -69,10 +71,19 @@ bool readBag(const std::string& path, const BagTopics& topics, const std::string
       }
     }
     // Pass 2: the sensors' messages, in the bag's order.
-    const std::string scan_topic = absoluteTopic(topics.scan), cloud_topic = absoluteTopic(topics.cloud);
-    std::vector<std::string> wanted;
-    for (const std::string& t : {topics.scan, scan_topic, topics.cloud, cloud_topic}) {
-      if (!t.empty()) wanted.push_back(t);
+    std::set<std::string> scan_topics;  // absolute names
+    std::vector<std::string> wanted;  // as given, and absolute (a bag may record either)
+    for (const std::string& t : topics.scans) {
+      if (t.empty()) continue;
+      scan_topics.insert(absoluteTopic(t));
+      wanted.push_back(t), wanted.push_back(absoluteTopic(t));
+    }
+    for (const std::string& t : topics.clouds) {
+      if (!t.empty()) wanted.push_back(t), wanted.push_back(absoluteTopic(t));
+    }
+    if (wanted.empty()) {
+      *error = "no scan or cloud topic given";
+      return false;
     }
     rosbag::View view(bag, rosbag::TopicQuery(wanted));
     const std::size_t total = view.size();
@@ -80,7 +91,7 @@ bool readBag(const std::string& path, const BagTopics& topics, const std::string
     for (const rosbag::MessageInstance& m : view) {
       if (progress && seen++ % 100 == 0) progress(total ? double(seen) / total : 1.0);
       const std::string topic = absoluteTopic(m.getTopic());
-      if (!scan_topic.empty() && topic == scan_topic) {
+      if (scan_topics.count(topic)) {
         placeAndHandOn<sensor_msgs::LaserScan, Scan>(
             m, buffer, fixed_frame, "not_a_laser_scan", "no_transform",
             [](const sensor_msgs::LaserScan::ConstPtr& msg, const Eigen::Isometry3d& pose, Scan* out) {
@@ -97,8 +108,14 @@ bool readBag(const std::string& path, const BagTopics& topics, const std::string
       }
     }
     if (total == 0) {
-      *error = path + ": no messages on topic '" + (topics.scan.empty() ? topics.cloud : topics.scan) + "'" +
-               (topics.scan.empty() || topics.cloud.empty() ? "" : " nor '" + topics.cloud + "'");
+      std::string names;
+      std::size_t count = 0;
+      for (const auto* list : {&topics.scans, &topics.clouds}) {
+        for (const std::string& t : *list) {
+          if (!t.empty()) names += (count++ ? ", '" : "'") + t + "'";
+        }
+      }
+      *error = path + ": no messages on topic" + (count > 1 ? "s " : " ") + names;
       return false;
     }
   } catch (const std::exception& e) {
@@ -112,7 +129,7 @@ bool readBagScans(const std::string& path, const std::string& scan_topic, const 
                   BagScans* out, std::string* error, const std::function<void(double)>& progress) {
   BagHandlers handlers;
   handlers.scan = [out](const Scan& scan) { out->scans.push_back(scan); };
-  return readBag(path, BagTopics{scan_topic, ""}, fixed_frame, handlers, &out->skipped, error, progress);
+  return readBag(path, BagTopics{{scan_topic}, {}}, fixed_frame, handlers, &out->skipped, error, progress);
 }
 
 }  // namespace tools

@@ -13,9 +13,11 @@
 namespace octo_slice_mapper {
 namespace tools {
 
+// The topics read: scans from every topic of `scans`, clouds from every topic of `clouds`, all in
+// the bag's order (each message placed with its own frame); an empty name stands for none.
 struct BagTopics {
-  std::string scan;   // sensor_msgs/LaserScan; empty: none
-  std::string cloud;  // sensor_msgs/PointCloud2; empty: none
+  std::vector<std::string> scans;   // sensor_msgs/LaserScan
+  std::vector<std::string> clouds;  // sensor_msgs/PointCloud2
 };
 
 struct BagHandlers {

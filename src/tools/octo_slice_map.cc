@@ -1,12 +1,13 @@
 // octo_slice_map: offline mapping of a recorded log (CARMEN .log/.clf, gzip or plain) or rosbag.
 //
 //   octo_slice_map LOG [options]
-//   octo_slice_map --bag FILE [--scan-topic scan] [--cloud-topic TOPIC] [--fixed-frame odom] [options]
+//   octo_slice_map --bag FILE [--scan-topic scan]... [--cloud-topic TOPIC]... [--fixed-frame odom] [options]
 //
 // --cloud-topic maps a bag's PointCloud2 messages (a depth camera's) into the same octree, in the
-// bag's order with the scans; --scan-topic "" maps the clouds alone.
+// bag's order with the scans; --scan-topic "" maps the clouds alone. Both may be given more than
+// once (a robot's several lidars and cameras, each in its own frame).
 //
-// Writes PREFIX.{bt,ot,pgm,yaml,png}, the best map (the global pass's; the incremental map with
+// Writes PREFIX.{bt,ot,pcd,pgm,yaml,png}, the best map (the global pass's; the incremental map with
 // --no-optimize), and PREFIX_incremental.{pgm,yaml,png}, the incremental slice, and prints a
 // one-line JSON summary on stdout. Progress goes to stderr when it is a terminal.
 #include <ros/package.h>
@@ -41,7 +42,14 @@ using Clock = std::chrono::steady_clock;
 namespace {
 
 struct Args {
-  std::string log, bag, scan_topic = "scan", cloud_topic, fixed_frame = "odom", out;
+  std::string log, bag, fixed_frame = "odom", out;
+  std::vector<std::string> scan_topics = {"scan"}, cloud_topics;  // "" in either: none
+  bool hasCloudTopic() const {
+    return std::any_of(cloud_topics.begin(), cloud_topics.end(), [](const std::string& t) { return !t.empty(); });
+  }
+  bool hasScanTopic() const {
+    return std::any_of(scan_topics.begin(), scan_topics.end(), [](const std::string& t) { return !t.empty(); });
+  }
   bool optimize = true, warm_start = true;  // warm: the better start on every shared log (doc/benchmarks.md)
   int holdout_every = 0;
   osm::MapperOptions mapper;
@@ -84,13 +92,17 @@ bool parse(int argc, char** argv, Args* a, int* code) {
   // Nobody reads the octree until the end: one flush then writes each voxel once, instead of
   // rewriting the voxels that keep changing every 20 000 updates.
   a->mapper.max_unflushed_voxels = std::size_t{1} << 26;
-  CLI::App app{"octo_slice_map: offline mapping of a recorded CARMEN log or rosbag. Writes PREFIX.{bt,ot,pgm,yaml,png} "
+  CLI::App app{"octo_slice_map: offline mapping of a recorded CARMEN log or rosbag. Writes PREFIX.{bt,ot,pcd,pgm,yaml,png} "
                "(the global pass's map; with --no-optimize the incremental one) and PREFIX_incremental.{pgm,yaml,png}, "
                "and prints a one-line JSON summary."};
   app.add_option("log", a->log, "CARMEN log (.log/.clf, plain or .gz): FLASER, RLASER, ROBOTLASER1 records");
   app.add_option("--bag", a->bag, "a rosbag instead of a log");
-  app.add_option("--scan-topic", a->scan_topic, "the bag's LaserScan topic (\"\": none)")->capture_default_str();
-  app.add_option("--cloud-topic", a->cloud_topic, "the bag's PointCloud2 topic (a depth camera), mapped too");
+  app.add_option("--scan-topic", a->scan_topics, "the bag's LaserScan topic; again for each further lidar (\"\": none)")
+      ->capture_default_str()
+      ->allow_extra_args(false);
+  app.add_option("--cloud-topic", a->cloud_topics,
+                 "the bag's PointCloud2 topic (a depth camera), mapped too; again for each further camera")
+      ->allow_extra_args(false);
   app.add_option("--fixed-frame", a->fixed_frame, "the bag's fixed frame")->capture_default_str();
   app.add_option("--out", a->out, "output prefix (default: the package's maps/<log name>)");
   app.add_option("--laser-z", a->carmen.laser_z, "height given to 2D log scans (m)")->capture_default_str();
@@ -186,7 +198,7 @@ class Feeder {
  public:
   Feeder(const Args& args, osm::MappingSession* session, Intake* intake)
       : args_(args), session_(session), intake_(intake) {
-    if (!args.cloud_topic.empty()) pipeline_ = std::make_unique<osm::CloudPipeline>(session, 0, /*max_pending=*/8);
+    if (args.hasCloudTopic()) pipeline_ = std::make_unique<osm::CloudPipeline>(session, 0, /*max_pending=*/8);
   }
 
   // `where`: the log and line (or bag message) the scan came from, for the report of a refused one.
@@ -279,7 +291,7 @@ int mapLog(const Args& args, Feeder* feed, osm::tools::ProgressBar* bar, Intake*
 
 // A bag's scans and clouds (through the bag's own tf) through `feed`; 0 or the exit status.
 int mapBag(const Args& args, Feeder* feed, osm::tools::ProgressBar* bar, Intake* intake) {
-  if (args.scan_topic.empty() && args.cloud_topic.empty()) {
+  if (!args.hasScanTopic() && !args.hasCloudTopic()) {
     std::cerr << "octo_slice_map: --scan-topic \"\" needs a --cloud-topic\n";
     return 2;
   }
@@ -288,7 +300,7 @@ int mapBag(const Args& args, Feeder* feed, osm::tools::ProgressBar* bar, Intake*
   handlers.scan = [&](const osm::Scan& scan) { feed->scan(scan, args.bag + ": scan " + std::to_string(bag_scans++)); };
   handlers.cloud = [&](const osm::DeferredCloud& cloud) { feed->cloud(cloud); };
   std::string error;
-  if (!osm::tools::readBag(args.bag, {args.scan_topic, args.cloud_topic}, args.fixed_frame, handlers,
+  if (!osm::tools::readBag(args.bag, {args.scan_topics, args.cloud_topics}, args.fixed_frame, handlers,
                            &intake->skipped_scans, &error, [&](double f) { bar->update("mapping bag", f); })) {
     std::cerr << "octo_slice_map: " << error << "\n";
     return 1;
@@ -356,7 +368,7 @@ std::string report(const Args& args, osm::Mapper& mapper, const Intake& intake, 
        << ", \"known_cells\": " << mapper.slice().knownCells()
        << ", \"memory\": " << jsonMemory(mapper, intake.cloud_preparer_bytes) << ", \"insert_ms_per_scan\": "
        << (stats.scans_inserted ? 1000.0 * intake.insert_seconds / stats.scans_inserted : 0.0);
-  if (!args.cloud_topic.empty()) {
+  if (args.hasCloudTopic()) {
     json << ", \"clouds\": " << stats.clouds_inserted << ", \"ms_per_cloud\": "
          << (stats.clouds_inserted ? 1000.0 * intake.cloud_seconds / stats.clouds_inserted : 0.0)
          << ", \"cloud_points\": " << jsonReadings(stats.cloud_points);

@@ -26,10 +26,11 @@ struct ScanStoreOptions {
   // kept one. The defaults keep every scan (the shared datasets are already thinned).
   double min_distance = 0.0;
   double min_rotation = 0.0;
-  // Skip a scan taken where a kept one was taken: laser position in the same revisit_cell x
-  // revisit_cell square and heading in the same revisit_angle sector. A robot standing still, or
-  // a bag replayed in a loop, then stops adding scans, so the store grows with the explored
-  // area, not with time. 0 disables it.
+  // Skip a scan taken where a kept one was taken by the same lidar: laser position in the same
+  // revisit_cell x revisit_cell square and heading in the same revisit_angle sector (and the same
+  // beams: a second lidar at the same place is no revisit). A robot standing still, or a bag
+  // replayed in a loop, then stops adding scans, so the store grows with the explored area, not
+  // with time. 0 disables it.
   double revisit_cell = 0.02;   // m
   double revisit_angle = 0.02;  // rad
   // At most this many scans; when full, every second scan is dropped (uniform thinning), so the
@@ -56,7 +57,9 @@ class ScanStore {
   std::uint64_t rewrites() const { return rewrites_; }
 
  private:
-  std::uint64_t revisitBin(const Eigen::Vector3f& origin, const Eigen::Quaternionf& rotation) const;
+  std::uint64_t revisitBin(const Eigen::Vector3f& origin, const Eigen::Quaternionf& rotation, float angle_min,
+                           std::size_t beams) const;
+  std::uint64_t revisitBinOf(const StoredScan& scan) const;
 
   ScanStoreOptions options_;
   std::vector<StoredScan> scans_;

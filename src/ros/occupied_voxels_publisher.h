@@ -1,0 +1,45 @@
+// ~occupied_voxels: the occupied voxels' centres as a sensor_msgs/PointCloud2 (x, y, z and
+// occupancy, FLOAT32), the 3D map as MoveIt, 3D planners, rviz and PCL tools read it. Latched;
+// published at most once every ~occupied_voxels_period wall seconds, only when the map changed
+// and someone listens. The octree is walked on this publisher's own thread while insertion goes
+// on (MappingSession::occupiedVoxels), so the scans never wait for the walk.
+#pragma once
+
+#include <ros/callback_queue.h>
+#include <ros/ros.h>
+#include <sensor_msgs/PointCloud2.h>
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "octo_slice_mapper/map_io.h"
+#include "octo_slice_mapper/mapping_session.h"
+
+namespace octo_slice_mapper {
+namespace ros_adapter {
+
+// The voxels as a cloud of one row: fields x, y, z, occupancy (FLOAT32, packed), dense.
+sensor_msgs::PointCloud2 occupiedVoxelsCloud(const std::vector<OccupiedVoxel>& voxels, const std::string& frame_id,
+                                             const ros::Time& stamp);
+
+class OccupiedVoxelsPublisher {
+ public:
+  OccupiedVoxelsPublisher(ros::NodeHandle pnh, MappingSession* session, std::string frame_id, double period);
+  ~OccupiedVoxelsPublisher();
+
+ private:
+  void tick(const ros::WallTimerEvent&);
+
+  MappingSession* session_;
+  std::string frame_id_;
+  ros::Publisher publisher_;
+  ros::CallbackQueue queue_;
+  std::unique_ptr<ros::AsyncSpinner> spinner_;
+  ros::WallTimer timer_;
+  std::uint64_t published_changes_ = ~std::uint64_t{0};  // the session's changes() last published
+};
+
+}  // namespace ros_adapter
+}  // namespace octo_slice_mapper
