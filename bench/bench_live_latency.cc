@@ -14,6 +14,8 @@
 // rate, answered and measured like the scans. Its frames are rendered before the clock
 // starts (a second's worth along the tour, then again: each frame's rays cost the mapper what a
 // live one would, though after the first second they no longer fit the robot's pose).
+// With ~listen_voxels the bench also subscribes to ~occupied_voxels, so that the node walks its
+// octree and publishes the cloud (it does only while someone listens): what that costs the scans.
 // Both subscriptions ask for TCP_NODELAY, as a latency-minded client should: without it the
 // node's small map_updates messages sit in the kernel (Nagle's algorithm meeting the client's
 // delayed ACK) and ~1 % of them arrive ~20 ms late (measured: p99 20.5 ms against 3 ms).
@@ -83,6 +85,8 @@ int main(int argc, char** argv) {
   ros::init(argc, argv, "bench_live_latency");
   ros::NodeHandle nh, pnh("~");
   double duration = 60.0, rate = 40.0, camera_rate = 0.0;
+  bool listen_voxels = false;
+  pnh.param("listen_voxels", listen_voxels, listen_voxels);
   pnh.param("duration", duration, duration);
   pnh.param("rate", rate, rate);
   pnh.param("camera_rate", camera_rate, camera_rate);
@@ -111,6 +115,15 @@ int main(int argc, char** argv) {
     // instead of an update; the periodic full maps carry other stamps and match no scan.
     latency_by_stamp.emplace(m->header.stamp.toSec(), (ros::Time::now() - m->header.stamp).toSec());
   }, ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
+  std::size_t voxel_clouds = 0, voxels_at_end = 0;
+  ros::Subscriber voxels;
+  if (listen_voxels) {
+    voxels = nh.subscribe<sensor_msgs::PointCloud2>("mapper_node/occupied_voxels", 2,
+                                                    [&](const sensor_msgs::PointCloud2::ConstPtr& c) {
+                                                      ++voxel_clouds;
+                                                      voxels_at_end = c->width;
+                                                    });
+  }
   std::size_t optimized_maps = 0;
   ros::Subscriber optimized = nh.subscribe<nav_msgs::OccupancyGrid>(
       "mapper_node/optimized_map", 5, [&](const nav_msgs::OccupancyGrid::ConstPtr&) { ++optimized_maps; });
@@ -238,11 +251,12 @@ int main(int argc, char** argv) {
               "\"full_maps_received\": %zu, \"map_cells_at_end\": %zu, \"optimized_maps_received\": %zu, "
               "\"online_passes\": %.0f, \"longest_online_pass_s\": %.2f, \"optimized_map_age_s\": {\"max\": %.2f, "
               "\"last\": %.2f}, \"camera_hz\": %.1f, \"clouds\": %zu, \"clouds_dropped\": %zu, "
-              "\"cloud_latency_ms\": {\"median\": %.2f, \"p99\": %.2f}}\n",
+              "\"cloud_latency_ms\": {\"median\": %.2f, \"p99\": %.2f}, \"voxel_clouds\": %zu, "
+              "\"occupied_voxels_at_end\": %zu}\n",
               stamps.size(), rate, spec.lidar.beams, wall, dropped, osm::bench::median(early), percentile(early, 0.99),
               osm::bench::median(late), percentile(late, 0.99), cpu, full_maps, map_cells, optimized_maps, online_passes,
               longest_pass, max_age, last_age, camera_rate, cloud_stamps.size(), clouds_dropped,
-              osm::bench::median(cloud_latency), percentile(cloud_latency, 0.99));
+              osm::bench::median(cloud_latency), percentile(cloud_latency, 0.99), voxel_clouds, voxels_at_end);
   std::fflush(stdout);
   ros::shutdown();
   return 0;

@@ -62,9 +62,9 @@ TEST_F(OptimizedMapTest, OptimizedGridGoesIntoTheBandAndIntoTheBtFile) {
   ASSERT_TRUE(saveBestMapSet(mapper_->tree(), mapper_->passBand(), &optimized.grid, incremental, dir + "/m", &written,
                              &error))
       << error;
-  EXPECT_EQ(written, (std::vector<std::string>{dir + "/m.bt", dir + "/m.ot", dir + "/m.pgm", dir + "/m.yaml",
-                                               dir + "/m.png", dir + "/m_incremental.pgm", dir + "/m_incremental.yaml",
-                                               dir + "/m_incremental.png"}));
+  EXPECT_EQ(written, (std::vector<std::string>{dir + "/m.bt", dir + "/m.ot", dir + "/m.pcd", dir + "/m.pgm",
+                                               dir + "/m.yaml", dir + "/m.png", dir + "/m_incremental.pgm",
+                                               dir + "/m_incremental.yaml", dir + "/m_incremental.png"}));
   EXPECT_EQ(mapper_->tree().getNumLeafNodes(), leaves_before) << "saving must not change the live tree";
 
   // The .bt, read back with OctoMap, has the optimized cells in the band: occupied where the grid
