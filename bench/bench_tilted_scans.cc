@@ -1,5 +1,5 @@
 // bench_tilted_scans: what a real robot's tf does to insertion speed. The same
-// simulated session mapped twice in one process: once with level scans (the fast path), once
+// simulated session mapped twice in one process: once with level scans, once
 // with each scan through a tf chain built like a real robot's: odom -> base_link with the
 // session's x, y, yaw plus IMU-style roll and pitch noise (sigma 0.6 deg, at most 1.1 deg) and a
 // base height that moves by a centimetre or two; base_link -> laser a static mount 0.10 m forward,

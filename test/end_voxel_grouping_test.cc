@@ -63,11 +63,10 @@ TEST(EndVoxelGrouping, KeyCoordinateIsTheScaledCoordinateTruncatedWhereThereIsOn
   }
 }
 
-// The SIMD paths against the one-coordinate reference, value for value, at every alignment and
-// with counts that leave a remainder: both ways this processor can run it (AVX2 where it has it,
-// and x86-64's baseline).
+// The SIMD path against the one-coordinate reference, value for value, at every alignment and
+// with counts that leave a remainder.
 TEST(EndVoxelGrouping, KeyCoordinatesAreKeyCoordinateOfForEveryValue) {
-  for (const auto key_coordinates : {osm::keyCoordinates, osm::keyCoordinatesBaseline}) {
+  for (const auto key_coordinates : {osm::keyCoordinates}) {
     for (double resolution : {kResolution, 0.0625}) {
       const double inverse = 1.0 / resolution;
       const std::vector<float> values = edgeFloats(resolution);

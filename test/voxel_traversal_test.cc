@@ -86,11 +86,7 @@ class VoxelTraversalTest : public ::testing::Test {
       const octomap::OcTreeKey k = PackedKeys::keyOf(p);
       out.push_back({{int(k[0]) - centre(), int(k[1]) - centre(), level ? 0 : int(k[2]) - centre()}, t_exit});
     };
-    if (level) {
-      traverseLevel(tree, a, b, ka, kb, PackedKeys{}, visit);
-    } else {
-      traverseVoxels(tree, a, b, ka, kb, PackedKeys{}, visit);
-    }
+    traverseVoxels(tree, a, b, ka, kb, PackedKeys{}, visit);
     return out;
   }
   Eigen::Vector3d randomPoint() { return {coordinate(rng), coordinate(rng), coordinate(rng)}; }
@@ -114,58 +110,12 @@ TEST_F(VoxelTraversalTest, NearlyLevelSegmentsChangeLayerWhereTheyCrossIt) {
   }
 }
 
-TEST_F(VoxelTraversalTest, LevelWalkIsTheSpaceWalkInOneLayer) {
+TEST_F(VoxelTraversalTest, LevelSegmentsStayInTheirLayer) {
   for (int n = 0; n < 400; ++n) {
     const Eigen::Vector3d a = randomPoint();
     Eigen::Vector3d b = randomPoint();
     b.z() = a.z();
-    const std::vector<Crossed> level = walkOctree(a, b, true);
-    expectSameWalk(bruteForce(a, b, tree.getResolution(), 2), level, "level segment");
-    std::vector<Crossed> space = walkOctree(a, b, false);
-    ASSERT_EQ(space.size(), level.size());
-    for (std::size_t k = 0; k < space.size(); ++k) {
-      EXPECT_EQ(space[k].cell[0], level[k].cell[0]);
-      EXPECT_EQ(space[k].cell[1], level[k].cell[1]);
-      EXPECT_EQ(space[k].t_exit, level[k].t_exit);  // bit for bit: the level path must not change a map
-    }
-  }
-}
-
-// traverseVoxels walks nearly level segments with walkSpaceFewZ (z by a branch) and the others
-// with walkSpace: both must give the same cells with bit-identical exits for any segment, or
-// which one a ray takes would change a map.
-TEST_F(VoxelTraversalTest, TheFewZWalkIsTheSpaceWalkBitForBit) {
-  std::uniform_real_distribution<double> tilt(-0.3, 0.3);
-  for (int n = 0; n < 600; ++n) {
-    const Eigen::Vector3d a = randomPoint();
-    Eigen::Vector3d b = n % 3 == 0 ? randomPoint() : a + Eigen::Vector3d(coordinate(rng), coordinate(rng), 0.0);
-    if (n % 3 == 1) b.z() += tilt(rng);          // a few layers
-    if (n % 3 == 2) b.z() += 0.01 * tilt(rng);   // within one or two
-    WalkAxis axes[3];
-    int steps = 0;
-    const octomap::OcTreeKey ka = tree.coordToKey(a.x(), a.y(), a.z()), kb = tree.coordToKey(b.x(), b.y(), b.z());
-    for (int d = 0; d < 3; ++d) {
-      axes[d] = walkAxis(a[d], b[d], tree.keyToCoord(ka[d]), tree.getResolution(), std::numeric_limits<double>::infinity());
-      steps += std::abs(int(kb[d]) - int(ka[d]));
-    }
-    std::vector<Crossed> space, few_z;
-    const auto into = [](std::vector<Crossed>* out) {
-      return [out](std::uint64_t p, double t) {
-        const octomap::OcTreeKey key = PackedKeys::keyOf(p);
-        out->push_back({{key[0], key[1], key[2]}, t});
-      };
-    };
-    const auto step = AxisSteps<std::uint64_t>::of(axes[0], axes[1], axes[2], PackedKeys::stride(0),
-                                                   PackedKeys::stride(1), PackedKeys::stride(2));
-    std::uint64_t p = PackedKeys::indexOf(ka);
-    walkSpace(p, axes[0], axes[1], axes[2], step, steps, into(&space));
-    p = PackedKeys::indexOf(ka);
-    walkSpaceFewZ(p, axes[0], axes[1], axes[2], step, steps, into(&few_z));
-    ASSERT_EQ(space.size(), few_z.size()) << "segment " << n;
-    for (std::size_t c = 0; c < space.size(); ++c) {
-      EXPECT_EQ(space[c].cell, few_z[c].cell) << "segment " << n << ", cell " << c;
-      EXPECT_EQ(space[c].t_exit, few_z[c].t_exit) << "segment " << n << ", cell " << c;
-    }
+    expectSameWalk(bruteForce(a, b, tree.getResolution(), 2), walkOctree(a, b, true), "level segment");
   }
 }
 

@@ -8,9 +8,6 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
-#if defined(__x86_64__) && defined(__GNUC__)
-#include <immintrin.h>
-#endif
 
 namespace octo_slice_mapper {
 
@@ -21,8 +18,7 @@ std::int32_t keyCoordinateOf(float coord, double inverse, double centre) {
   return s >= 0.0 && s < 2.0 * centre ? static_cast<std::int32_t>(s) : kNoKeyCoordinate;  // NaN: none
 }
 
-void keyCoordinatesBaseline(const float* coords, std::size_t count, double inverse, double centre,
-                            std::int32_t* keys) {
+void keyCoordinates(const float* coords, std::size_t count, double inverse, double centre, std::int32_t* keys) {
   std::size_t k = 0;
 #if defined(__SSE2__)
   // Four floats per round, as two pairs of doubles: the same multiply, add, comparisons and
@@ -46,41 +42,6 @@ void keyCoordinatesBaseline(const float* coords, std::size_t count, double inver
   }
 #endif
   for (; k < count; ++k) keys[k] = keyCoordinateOf(coords[k], inverse, centre);
-}
-
-#if defined(__x86_64__) && defined(__GNUC__)
-namespace {
-// The same four floats a round as two doubles' halves of one 256-bit register: half the
-// instructions. Compiled for AVX2 alone (not FMA: a fused multiply-add would round differently).
-__attribute__((target("avx2"))) void keyCoordinatesAvx2(const float* coords, std::size_t count, double inverse,
-                                                        double centre, std::int32_t* keys) {
-  const __m256d inv = _mm256_set1_pd(inverse), cen = _mm256_set1_pd(centre), limit = _mm256_set1_pd(2.0 * centre);
-  const __m256d zero = _mm256_setzero_pd();
-  const __m256i low_halves = _mm256_setr_epi32(0, 2, 4, 6, 0, 2, 4, 6);  // a 64-bit mask's low 32 bits
-  const __m128i none = _mm_set1_epi32(kNoKeyCoordinate);
-  std::size_t k = 0;
-  for (; k + 4 <= count; k += 4) {
-    const __m256d s = _mm256_add_pd(_mm256_mul_pd(_mm256_cvtps_pd(_mm_loadu_ps(coords + k)), inv), cen);
-    const __m256d inside = _mm256_and_pd(_mm256_cmp_pd(s, zero, _CMP_GE_OQ), _mm256_cmp_pd(s, limit, _CMP_LT_OQ));
-    const __m128i mask =
-        _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(_mm256_castpd_si256(inside), low_halves));
-    const __m128i key = _mm_blendv_epi8(none, _mm256_cvttpd_epi32(s), mask);
-    _mm_storeu_si128(reinterpret_cast<__m128i*>(keys + k), key);
-  }
-  for (; k < count; ++k) keys[k] = keyCoordinateOf(coords[k], inverse, centre);
-}
-}  // namespace
-#endif
-
-void keyCoordinates(const float* coords, std::size_t count, double inverse, double centre, std::int32_t* keys) {
-#if defined(__x86_64__) && defined(__GNUC__)
-  static const bool avx2 = __builtin_cpu_supports("avx2");
-  if (avx2) {
-    keyCoordinatesAvx2(coords, count, inverse, centre, keys);
-    return;
-  }
-#endif
-  keyCoordinatesBaseline(coords, count, inverse, centre, keys);
 }
 
 namespace {

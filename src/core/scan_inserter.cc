@@ -305,30 +305,20 @@ class BeamEvidence {
 // constants in registers (through the tree they are reloaded per voxel).
 class VoxelCentres {
  public:
-  VoxelCentres(const octomap::OcTree& tree, const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key)
+  VoxelCentres(const octomap::OcTree& tree, const Eigen::Vector3d& origin)
       : resolution_(tree.getResolution()),
         center_(1 << (tree.getTreeDepth() - 1)),  // the key of coordinate 0 (OctoMap's tree_max_val)
-        origin_(origin),
-        dz_(tree.keyToCoord(origin_key[2]) - origin.z()) {}
+        origin_(origin) {}
 
   // Along `direction` and the squared distance off it (from its nearest point ahead of the origin).
-  // The centre in double, as keyToCoord(key_type) and placeInLayer have it. (This used to round it
-  // through float, as keyToCoord(OcTreeKey) does, but GCC 12.2 at -O2 vectorized x and y together
-  // and dropped their rounding, keeping z's.)
+  // The centre in double, as keyToCoord(key_type) has it: not rounded through float as
+  // keyToCoord(OcTreeKey) does, which GCC 12.2 at -O2 vectorizes for x and y together, dropping
+  // their rounding but keeping z's.
   __attribute__((always_inline)) void place(const octomap::OcTreeKey& key, const Eigen::Vector3d& direction,
                                             double* along, double* lateral_sq) const {
     const Eigen::Vector3d v(coord(key[0]) - origin_.x(), coord(key[1]) - origin_.y(), coord(key[2]) - origin_.z());
     *along = v.dot(direction);
     *lateral_sq = (v - std::max(0.0, *along) * direction).squaredNorm();
-  }
-  // The same for a voxel of the origin's layer and a beam in the plane: `across` is the in-plane
-  // normal of the axis, and the centre's height above the origin is the layer's.
-  __attribute__((always_inline)) void placeInLayer(const octomap::OcTreeKey& key, const Beam& beam, double* along,
-                                                   double* lateral_sq) const {
-    const double vx = coord(key[0]) - origin_.x(), vy = coord(key[1]) - origin_.y();
-    *along = vx * beam.direction.x() + vy * beam.direction.y();
-    const double lateral = vx * beam.across.x() + vy * beam.across.y();
-    *lateral_sq = *along > 0.0 ? lateral * lateral + dz_ * dz_ : vx * vx + vy * vy + dz_ * dz_;
   }
 
  private:
@@ -336,7 +326,6 @@ class VoxelCentres {
   double resolution_;
   int center_;
   Eigen::Vector3d origin_;
-  double dz_;
 };
 
 }  // namespace
@@ -357,7 +346,7 @@ __attribute__((noinline)) void ScanInserter::traceBeams(const Eigen::Vector3d& o
   // A voxel's centre is at most half its diagonal from any point inside it.
   const double half_diagonal = 0.5 * std::sqrt(3.0) * tree_->getResolution();
   const float l_free = model_.logOddsFree();
-  const VoxelCentres centres(*tree_, origin, origin_key);
+  const VoxelCentres centres(*tree_, origin);
   for (std::size_t b = 0; b < beams.size(); ++b) {
     if (ray_begin_[b] == ray_begin_[b + 1]) continue;  // left the octree
     const Beam& beam = beams[b];
@@ -395,10 +384,6 @@ __attribute__((noinline)) void ScanInserter::traceBeams(const Eigen::Vector3d& o
     };
     const auto in_3d = [&](const octomap::OcTreeKey& k, double* along, double* lateral_sq) __attribute__((
                            always_inline)) { centres.place(k, beam.direction, along, lateral_sq); };
-    const auto in_layer = [&](const octomap::OcTreeKey& k, double* along, double* lateral_sq) __attribute__((
-                              always_inline)) { centres.placeInLayer(k, beam, along, lateral_sq); };
-    // Scan beams of a level scan: the axis and `across` lie in the plane.
-    const bool level_beam = kWalks == Walks::kLevel || (kWalks == Walks::kAll && isLevelBeam(beam));
     const double length = trace_length_[b];
     for (std::size_t r = ray_begin_[b]; r < ray_begin_[b + 1]; ++r) {
       const Ray& ray = rays_[r];
@@ -453,15 +438,7 @@ __attribute__((noinline)) void ScanInserter::traceBeams(const Eigen::Vector3d& o
           continue;
         }
       }
-      if constexpr (kWalks != Walks::kSpace) {
-        if (level_beam) {  // its rays stay in the origin's layer: from.z == far.z exactly
-          traverseLevel(*tree_, from, far, from_key, ray.far_key, cells, visitor(t_lo, t_hi, in_layer));
-          continue;
-        }
-      }
-      if constexpr (kWalks != Walks::kLevel) {
-        traverseVoxels(*tree_, from, far, from_key, ray.far_key, cells, visitor(t_lo, t_hi, in_3d));
-      }
+      traverseVoxels(*tree_, from, far, from_key, ray.far_key, cells, visitor(t_lo, t_hi, in_3d));
     }
     if (fanned) {
       handOnOncePerVoxel(&beam_evidence_, [&](const octomap::OcTreeKey& key, float value) {
@@ -511,22 +488,15 @@ std::vector<KeyUpdate> ScanInserter::computeUpdates(const Eigen::Vector3d& origi
 // The evidence of the beams prepareBeams kept, into the window begun over their box.
 void ScanInserter::traceIntoWindow(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
                                    const std::vector<Beam>& beams, double half_angle, int shared_free_run) {
-  // Each kind of scan through the tracer compiled for its walks alone (Walks).
-  std::size_t level = 0;
-  for (const Beam& beam : beams) level += isLevelBeam(beam);
+  // Each kind of input through the tracer compiled for its walks alone (Walks).
   const bool shared_free_space = evidence_.combining() == EvidenceCombining::kOccupiedWins && shared_free_run > 0;
-  const Walks walks = shared_free_space || (level > 0 && level < beams.size()) ? Walks::kAll
-                      : level > 0                                              ? Walks::kLevel
-                                                                               : Walks::kSpace;
+  const Walks walks = shared_free_space ? Walks::kAll : Walks::kSpace;
   // The tracer instantiated per rule (scans sum, clouds by default keep the occupied).
   evidence_.withCombining([&](auto rule) {
     const auto sink = [this](ScanEvidence::Index index, float value)
                           __attribute__((always_inline)) { evidence_.addAtAs<decltype(rule)::value>(index, value); };
     const int run = decltype(rule)::value == EvidenceCombining::kOccupiedWins ? shared_free_run : 0;
     switch (walks) {
-      case Walks::kLevel:
-        traceBeams<Walks::kLevel>(origin, origin_key, beams, half_angle, evidence_, sink, /*shortcuts=*/true);
-        break;
       case Walks::kSpace:
         traceBeams<Walks::kSpace>(origin, origin_key, beams, half_angle, evidence_, sink, /*shortcuts=*/true);
         break;

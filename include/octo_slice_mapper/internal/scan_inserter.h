@@ -171,17 +171,12 @@ class ScanInserter {
   void traceIntoWindow(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
                        const std::vector<Beam>& beams, double half_angle, int shared_free_run = 0);
   // Which walks an instantiation of traceBeams holds. Each walk's loop is best compiled alone:
-  // compiled beside the level walk and a cloud's backward walk, the 3D walk kept less in registers
-  // and a tilted session's insertion ran more instructions.
+  // compiled beside a cloud's backward walk, the forward walk kept less in registers and a
+  // session's insertion ran more instructions.
   enum class Walks {
-    kAll,    // any beam, rays walked backwards for a frame's shared free space
-    kLevel,  // level beams only (isLevelBeam), in their layer
-    kSpace,  // beams that are not level, forwards in 3D
+    kAll,    // rays walked backwards for a frame's shared free space, or forwards
+    kSpace,  // rays walked forwards
   };
-  // A beam of a level scan: its axis and `across` lie in the horizontal plane.
-  static bool isLevelBeam(const Beam& beam) {
-    return beam.direction.z() == 0.0 && beam.across.z() == 0.0 && !beam.across.isZero();
-  }
   // With `shortcuts`, voxels that are surely in a beam's free valley get l_free without the
   // model being evaluated; without, every voxel is judged (the reference for tests).
   template <Walks kWalks = Walks::kAll, typename Cells, typename Sink>

@@ -30,12 +30,9 @@ constexpr std::int32_t kNoKeyCoordinate = -1;
 // of coordinate 0 is `centre` (OctoMap's tree_max_val) and whose 1 / resolution is `inverse`:
 // trunc(double(c) * inverse + centre) where that lies in [0, 2 centre), else kNoKeyCoordinate.
 // This is OctoMap's floor(c / resolution) + centre but at the rounding of a value within an ulp
-// of a voxel boundary (the grouping has always used it). On x86-64 four floats at a time, with
-// AVX2 where the processor has it, else SSE2; each the same as keyCoordinateOf.
+// of a voxel boundary (the grouping has always used it). On x86-64 four floats at a time (SSE2),
+// each the same as keyCoordinateOf.
 void keyCoordinates(const float* coords, std::size_t count, double inverse, double centre, std::int32_t* keys);
-// keyCoordinates without AVX2 (x86-64's baseline): what a processor without it runs, for the tests.
-void keyCoordinatesBaseline(const float* coords, std::size_t count, double inverse, double centre,
-                            std::int32_t* keys);
 // One coordinate: the reference for keyCoordinates.
 std::int32_t keyCoordinateOf(float coord, double inverse, double centre);
 

@@ -1,6 +1,6 @@
 // The one grid walk of the project (Amanatides & Woo): the cells a straight segment crosses, in
-// order, each with where the segment leaves it. Scan insertion walks octree voxels with it (3D,
-// and in one layer for level scans), the global pass walks its 2D grid with it.
+// order, each with where the segment leaves it. Scan insertion walks octree voxels with it in 3D,
+// the global pass walks its 2D grid with it.
 #pragma once
 
 #include <octomap/OcTree.h>
@@ -127,35 +127,6 @@ __attribute__((always_inline)) inline bool walkSpace(Index& p, const WalkAxis& x
   }
 }
 
-// The same walk, cell for cell and t for t, for a segment whose z steps are few among its steps
-// (a scan tilted by a degree or two: a 12 m ray changes layer a handful of times in 240 steps).
-// The rare z step is a branch, predicted right almost every time; x against y stays a select.
-// Fewer instructions per step than walkSpace, which pays for selecting z every step; for a steep
-// ray (a depth camera's) the branch would be mispredicted, so traverseVoxels picks per segment.
-template <typename Index, typename Visit>
-__attribute__((always_inline)) inline bool walkSpaceFewZ(Index& p, const WalkAxis& x, const WalkAxis& y,
-                                                         const WalkAxis& z, const AxisSteps<Index>& step, int steps,
-                                                         Visit&& visit) {
-  double tx = x.next, ty = y.next, tz = z.next;
-  for (;; --steps) {
-    const bool x_before_y = tx < ty;
-    const double t_xy = x_before_y ? tx : ty;
-    if (__builtin_expect(!(t_xy < tz), 0)) {  // z next, as walkSpace decides it
-      if (!detail::keepWalking(visit, p, tz)) return false;
-      if (steps <= 0) return true;
-      p += step.z;
-      tz += z.delta;
-      continue;
-    }
-    if (!detail::keepWalking(visit, p, t_xy)) return false;
-    if (steps <= 0) return true;
-    const double next_tx = tx + x.delta, next_ty = ty + y.delta;  // as walkPlane steps
-    p += x_before_y ? step.x : step.y;
-    tx = x_before_y ? next_tx : tx;
-    ty = x_before_y ? ty : next_ty;
-  }
-}
-
 // OcTree keys as walk indices, 16 bits per axis (keys are 16-bit): for walks that hand on keys.
 struct PackedKeys {
   using Index = std::uint64_t;
@@ -190,32 +161,9 @@ inline bool traverseVoxels(const octomap::OcTree& tree, const Eigen::Vector3d& f
   const auto step = AxisSteps<Index>::of(axes[0], axes[1], axes[2], cells.stride(0), cells.stride(1), cells.stride(2));
   Index p = cells.indexOf(from_key);
   const Index end = cells.indexOf(to_key);
-  // One z step in 16 or fewer: nearly level (the same cells either way, only the speed differs).
-  const bool walked = 16 * std::abs(int(to_key[2]) - int(from_key[2])) <= steps
-                          ? walkSpaceFewZ(p, axes[0], axes[1], axes[2], step, steps, visit)
-                          : walkSpace(p, axes[0], axes[1], axes[2], step, steps, visit);
-  if (!walked) return false;
+  if (!walkSpace(p, axes[0], axes[1], axes[2], step, steps, visit)) return false;
   if (p != end) return detail::keepWalking(visit, end, 1.0);
   return true;
-}
-
-// The same walk for a segment in one horizontal layer (from.z == to.z): the same voxels and t_exit
-// as traverseVoxels gives for it (its z step never wins), in 2D.
-template <typename Cells, typename Visit>
-inline void traverseLevel(const octomap::OcTree& tree, const Eigen::Vector3d& from, const Eigen::Vector3d& to,
-                          const octomap::OcTreeKey& from_key, const octomap::OcTreeKey& to_key, const Cells& cells,
-                          Visit&& visit) {
-  using Index = typename Cells::Index;
-  const double res = tree.getResolution();
-  constexpr double kNever = 1e300;
-  const WalkAxis x = walkAxis(from.x(), to.x(), tree.keyToCoord(from_key[0]), res, kNever);
-  const WalkAxis y = walkAxis(from.y(), to.y(), tree.keyToCoord(from_key[1]), res, kNever);
-  const int steps = std::abs(int(to_key[0]) - int(from_key[0])) + std::abs(int(to_key[1]) - int(from_key[1]));
-  const Index step_x = AxisSteps<Index>::along(x, cells.stride(0)), step_y = AxisSteps<Index>::along(y, cells.stride(1));
-  Index p = cells.indexOf(from_key);
-  const Index end = cells.indexOf(to_key);
-  walkPlane(p, x, y, step_x, step_y, steps, visit);
-  if (p != end) visit(end, 1.0);
 }
 
 }  // namespace octo_slice_mapper
