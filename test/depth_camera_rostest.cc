@@ -1,4 +1,4 @@
-// Issue 22 through a real roscore: a TurtleBot's depth camera (simulated Kinect, organized clouds
+// Through a real roscore: a TurtleBot's depth camera (simulated Kinect, organized clouds
 // with NaN where it sees nothing) into cloud_in. With the navigation band the table top (0.72 m)
 // and the shelf's overhang (0.45-0.60 m) are occupied in /map, where the lidar's band, which the
 // lidar sees through, has free floor or nothing; the floor itself is never occupied.

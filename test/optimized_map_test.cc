@@ -157,7 +157,7 @@ TEST_F(OptimizedMapTest, ApplyingTheResultUpdatesTreeAndSlice) {
   }
 }
 
-// Issue 22: with the depth camera the band is the navigation band, and a table top above the
+// With the depth camera the band is the navigation band, and a table top above the
 // lidar's plane is the camera's evidence. The global pass explains the lidar's beams, which pass
 // under the table: its result must neither erase the table top from the octree nor hide it.
 TEST(OptimizedMapWithCameraTest, ObstaclesAboveTheLidarPlaneSurviveThePass) {
