@@ -1,0 +1,119 @@
+// tum2bag: a TUM RGB-D sequence (depth PNGs and motion-capture poses) as a rosbag of organized
+// PointCloud2 frames and tf, so that octo_slice_map and replay.launch map real depth cameras:
+//
+//   tum2bag FOLDER OUT.bag [--camera freiburg1|freiburg3] [--lower M] [--tilt DEG] [--fixed-frame odom]
+//   octo_slice_map --bag OUT.bag --scan-topic '' --cloud-topic /camera/depth/points
+//       --slice-min-z 0.05 --slice-max-z 0.80
+//
+// --lower M moves the world down by M (the floor at z = -M) and --tilt DEG turns it about the
+// x axis: the same frames in another fixed frame, as a robot whose odometry origin is not on the
+// floor, or whose camera mount is off by a degree or two, would record them.
+#include <ros/time.h>
+#include <rosbag/bag.h>
+#include <tf2_msgs/TFMessage.h>
+
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <string>
+
+#include "progress_bar.h"
+#include "ros/point_cloud_conversion.h"
+#include "tum_sequence.h"
+
+namespace {
+
+const char kUsage[] =
+    "usage: tum2bag FOLDER OUT.bag [--camera freiburg1|freiburg3] [--lower M] [--tilt DEG] [--fixed-frame odom]\n";
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  namespace tools = octo_slice_mapper::tools;
+  std::string folder, bag_path, camera = "freiburg3", fixed_frame = "odom";
+  double lower = 0.0, tilt_deg = 0.0;
+  try {
+    for (int i = 1; i < argc; ++i) {
+      const std::string arg = argv[i];
+      if (arg == "--camera" && i + 1 < argc) camera = argv[++i];
+      else if (arg == "--lower" && i + 1 < argc) lower = std::stod(argv[++i]);
+      else if (arg == "--tilt" && i + 1 < argc) tilt_deg = std::stod(argv[++i]);
+      else if (arg == "--fixed-frame" && i + 1 < argc) fixed_frame = argv[++i];
+      else if (arg[0] != '-' && folder.empty()) folder = arg;
+      else if (arg[0] != '-' && bag_path.empty()) bag_path = arg;
+      else throw std::invalid_argument(arg);
+    }
+  } catch (const std::exception&) {
+    std::cerr << kUsage;
+    return 2;
+  }
+  if (folder.empty() || bag_path.empty() || (camera != "freiburg1" && camera != "freiburg3")) {
+    std::cerr << kUsage;
+    return 2;
+  }
+  const tools::DepthIntrinsics intrinsics =
+      camera == "freiburg1" ? tools::DepthIntrinsics::freiburg1() : tools::DepthIntrinsics::freiburg3();
+  std::vector<tools::DepthFrame> frames;
+  std::string error;
+  if (!tools::readTumSequence(folder, &frames, &error)) {
+    std::cerr << "tum2bag: " << error << "\n";
+    return 1;
+  }
+  if (frames.empty()) {
+    std::cerr << "tum2bag: " << folder << ": no frame has a pose\n";
+    return 1;
+  }
+  // The world as the bag's fixed frame sees it: turned about x, then moved down.
+  const Eigen::Isometry3d world = Eigen::Translation3d(0.0, 0.0, -lower) *
+                                  Eigen::AngleAxisd(tilt_deg * M_PI / 180.0, Eigen::Vector3d::UnitX());
+  const std::string partial = bag_path + ".partial";
+  const std::string optical = "camera_depth_optical_frame";
+  tools::ProgressBar bar;
+  std::size_t written = 0;
+  try {
+    rosbag::Bag bag(partial, rosbag::bagmode::Write);
+    for (std::size_t k = 0; k < frames.size(); ++k) {
+      bar.update("converting", double(k) / frames.size());
+      int width = 0, height = 0;
+      std::vector<std::uint16_t> pixels;
+      if (!tools::readDepthPng(frames[k].image, &width, &height, &pixels, &error)) {
+        std::cerr << "tum2bag: " << error << ": frame left out\n";
+        continue;
+      }
+      const ros::Time stamp(frames[k].stamp);
+      const Eigen::Isometry3d pose = world * frames[k].pose;
+      geometry_msgs::TransformStamped t;
+      t.header.stamp = stamp;
+      t.header.frame_id = fixed_frame;
+      t.child_frame_id = optical;
+      t.transform.translation.x = pose.translation().x();
+      t.transform.translation.y = pose.translation().y();
+      t.transform.translation.z = pose.translation().z();
+      const Eigen::Quaterniond q(pose.linear());
+      t.transform.rotation.x = q.x(), t.transform.rotation.y = q.y(), t.transform.rotation.z = q.z();
+      t.transform.rotation.w = q.w();
+      tf2_msgs::TFMessage tf;
+      tf.transforms.push_back(t);
+      bag.write("/tf", stamp, tf);
+      sensor_msgs::PointCloud2 cloud = octo_slice_mapper::ros_adapter::organizedCloud(
+          tools::depthPoints(width, height, pixels, intrinsics), width, height, optical);
+      cloud.header.stamp = stamp;
+      cloud.header.seq = static_cast<std::uint32_t>(k);
+      bag.write("/camera/depth/points", stamp + ros::Duration(0.001), cloud);  // after its pose
+      ++written;
+    }
+    bag.close();
+  } catch (const std::exception& e) {
+    std::remove(partial.c_str());
+    std::cerr << "tum2bag: " << bag_path << ": " << e.what() << "\n";
+    return 1;
+  }
+  bar.finish();
+  if (std::rename(partial.c_str(), bag_path.c_str()) != 0) {
+    std::remove(partial.c_str());
+    std::cerr << "tum2bag: cannot rename " << partial << " to " << bag_path << "\n";
+    return 1;
+  }
+  std::cout << "tum2bag: wrote " << bag_path << " (" << written << " depth frames of " << frames.size() << ")\n";
+  return written > 0 ? 0 : 1;
+}

@@ -1,0 +1,123 @@
+// The TUM RGB-D reader: 16-bit depth PNGs, the pinhole back-projection, and both sequence layouts.
+#include "tum_sequence.h"
+
+#include <gtest/gtest.h>
+#include <png.h>
+#include <sys/stat.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <string>
+#include <vector>
+
+namespace octo_slice_mapper {
+namespace tools {
+namespace {
+
+void writeDepthPng(const std::string& path, int width, int height, const std::vector<std::uint16_t>& pixels) {
+  std::FILE* f = std::fopen(path.c_str(), "wb");
+  ASSERT_NE(f, nullptr);
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+  png_infop info = png_create_info_struct(png);
+  png_init_io(png, f);
+  png_set_IHDR(png, info, width, height, 16, PNG_COLOR_TYPE_GRAY, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
+               PNG_FILTER_TYPE_DEFAULT);
+  png_write_info(png, info);
+  png_set_swap(png);
+  for (int r = 0; r < height; ++r) {
+    png_write_row(png, reinterpret_cast<png_const_bytep>(pixels.data() + std::size_t(r) * width));
+  }
+  png_write_end(png, nullptr);
+  png_destroy_write_struct(&png, &info);
+  std::fclose(f);
+}
+
+class TumSequenceTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    char tmpl[] = "/tmp/osm_tum_XXXXXX";
+    dir_ = ::mkdtemp(tmpl);
+    ::mkdir((dir_ + "/depth").c_str(), 0755);
+  }
+  void TearDown() override { std::system(("rm -rf " + dir_).c_str()); }
+  void write(const std::string& name, const std::string& text) { std::ofstream(dir_ + "/" + name) << text; }
+  std::string dir_;
+};
+
+TEST_F(TumSequenceTest, DepthPngsReadBackAndBackProjectThroughThePinhole) {
+  const std::vector<std::uint16_t> pixels = {0, 5000, 10000, 65535, 1, 7500};  // 3 x 2
+  writeDepthPng(dir_ + "/depth/0000.png", 3, 2, pixels);
+  int width = 0, height = 0;
+  std::vector<std::uint16_t> read;
+  std::string error;
+  ASSERT_TRUE(readDepthPng(dir_ + "/depth/0000.png", &width, &height, &read, &error)) << error;
+  EXPECT_EQ(width, 3);
+  EXPECT_EQ(height, 2);
+  EXPECT_EQ(read, pixels) << "the 16-bit values, not byte-swapped";
+  const DepthIntrinsics k{500.0, 400.0, 1.0, 0.5, 5000.0};
+  const std::vector<Eigen::Vector3f> points = depthPoints(width, height, read, k);
+  ASSERT_EQ(points.size(), 6u);
+  EXPECT_TRUE(std::isnan(points[0].x())) << "0 is no measurement";
+  EXPECT_NEAR(points[1].z(), 1.0f, 1e-6);  // 5000 units: 1 m
+  EXPECT_NEAR(points[1].x(), 0.0f, 1e-6);  // u = cx
+  EXPECT_NEAR(points[2].x(), 2.0f * (2 - 1.0) / 500.0, 1e-6);
+  EXPECT_NEAR(points[2].y(), 2.0f * (0 - 0.5) / 400.0, 1e-6);  // y down: above the centre is negative
+  EXPECT_NEAR(points[5].y(), 1.5f * (1 - 0.5) / 400.0, 1e-6);
+
+  // Not a depth image: an 8-bit PNG is refused with a reason.
+  std::FILE* f = std::fopen((dir_ + "/eight.png").c_str(), "wb");
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+  png_infop info = png_create_info_struct(png);
+  png_init_io(png, f);
+  png_set_IHDR(png, info, 1, 1, 8, PNG_COLOR_TYPE_GRAY, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
+               PNG_FILTER_TYPE_DEFAULT);
+  png_write_info(png, info);
+  const png_byte row[1] = {7};
+  png_write_row(png, row);
+  png_write_end(png, nullptr);
+  png_destroy_write_struct(&png, &info);
+  std::fclose(f);
+  EXPECT_FALSE(readDepthPng(dir_ + "/eight.png", &width, &height, &read, &error));
+  EXPECT_NE(error.find("16-bit"), std::string::npos) << error;
+}
+
+TEST_F(TumSequenceTest, PosesTxtGivesEachImageInNameOrderItsPose) {
+  write("poses.txt", "10.0 1 2 3 0 0 0 1\n10.5 4 5 6 0 0 0.7071068 0.7071068\n");
+  writeDepthPng(dir_ + "/depth/0001_depth_raw.png", 1, 1, {1});
+  writeDepthPng(dir_ + "/depth/0000_depth_raw.png", 1, 1, {1});
+  std::vector<DepthFrame> frames;
+  std::string error;
+  ASSERT_TRUE(readTumSequence(dir_, &frames, &error)) << error;
+  ASSERT_EQ(frames.size(), 2u);
+  EXPECT_EQ(frames[0].image, dir_ + "/depth/0000_depth_raw.png");
+  EXPECT_TRUE(frames[0].pose.translation().isApprox(Eigen::Vector3d(1, 2, 3)));
+  EXPECT_DOUBLE_EQ(frames[1].stamp, 10.5);
+  EXPECT_TRUE((frames[1].pose.linear() * Eigen::Vector3d::UnitX()).isApprox(Eigen::Vector3d::UnitY(), 1e-6))
+      << "turned 90 degrees about z";
+
+  write("poses.txt", "10.0 1 2 3 0 0 0 1\nbroken line\n");
+  EXPECT_FALSE(readTumSequence(dir_, &frames, &error));
+  EXPECT_NE(error.find("poses.txt:2"), std::string::npos) << error;
+}
+
+TEST_F(TumSequenceTest, DepthTxtTakesTheNearestGroundTruthPose) {
+  write("groundtruth.txt", "# ground truth\n1.00 0 0 0 0 0 0 1\n1.01 1 0 0 0 0 0 1\n1.02 2 0 0 0 0 0 1\n");
+  write("depth.txt", "# depth maps\n1.008 depth/a.png\n1.016 depth/b.png\n1.5 depth/c.png\n");
+  std::vector<DepthFrame> frames;
+  std::string error;
+  ASSERT_TRUE(readTumSequence(dir_, &frames, &error)) << error;
+  ASSERT_EQ(frames.size(), 2u) << "the frame 0.48 s from any pose is left out";
+  EXPECT_DOUBLE_EQ(frames[0].pose.translation().x(), 1.0);
+  EXPECT_DOUBLE_EQ(frames[1].pose.translation().x(), 2.0);
+  EXPECT_EQ(frames[1].image, dir_ + "/depth/b.png");
+
+  std::system(("rm " + dir_ + "/groundtruth.txt").c_str());
+  EXPECT_FALSE(readTumSequence(dir_, &frames, &error));
+  EXPECT_NE(error.find("groundtruth.txt"), std::string::npos) << error;
+}
+
+}  // namespace
+}  // namespace tools
+}  // namespace octo_slice_mapper
