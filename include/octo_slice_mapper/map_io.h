@@ -11,6 +11,10 @@
 #include "octo_slice_mapper/internal/atomic_file.h"
 #include "octo_slice_mapper/slice_grid.h"
 
+namespace pcl {
+struct PCLPointCloud2;
+}
+
 namespace octo_slice_mapper {
 
 // .bt: OctoMap's compact binary (max-likelihood). Written with writeBinaryConst so the live
@@ -61,8 +65,11 @@ struct OccupiedVoxel {
 // it), one per leaf-sized voxel: a pruned node stands for each leaf it holds, with its
 // probability. In the tree's leaf order.
 std::vector<OccupiedVoxel> occupiedVoxels(const octomap::OcTree& tree);
-// `voxels` as a PCL point cloud file: fields x, y, z, occupancy (FLOAT32), binary, the header
-// written by PCL's PCDWriter (pcl_viewer, CloudCompare and pcl::io::loadPCDFile read it).
+// `voxels` as a PCL cloud of one row: fields x, y, z, occupancy (FLOAT32, packed), dense. What
+// PREFIX.pcd holds and ~occupied_voxels carries.
+void occupiedVoxelsCloud(const std::vector<OccupiedVoxel>& voxels, pcl::PCLPointCloud2* cloud);
+// That cloud as a PCL point cloud file: binary, the header written by PCL's PCDWriter
+// (pcl_viewer, CloudCompare and pcl::io::loadPCDFile read it).
 bool addPointCloud(const std::vector<OccupiedVoxel>& voxels, const std::string& path, FileSet* files,
                    std::string* error);
 bool savePointCloud(const std::vector<OccupiedVoxel>& voxels, const std::string& path, std::string* error);

@@ -155,15 +155,14 @@ std::vector<OccupiedVoxel> occupiedVoxels(const octomap::OcTree& tree) {
   return voxels;
 }
 
-bool addPointCloud(const std::vector<OccupiedVoxel>& voxels, const std::string& path, FileSet* files,
-                   std::string* error) {
+void occupiedVoxelsCloud(const std::vector<OccupiedVoxel>& voxels, pcl::PCLPointCloud2* cloud) {
   static_assert(sizeof(OccupiedVoxel) == 16, "four packed floats, as the fields declare");
-  pcl::PCLPointCloud2 cloud;
-  cloud.width = static_cast<std::uint32_t>(voxels.size());
-  cloud.height = 1;
-  cloud.is_dense = true;
-  cloud.point_step = sizeof(OccupiedVoxel);
-  cloud.row_step = cloud.point_step * cloud.width;
+  *cloud = pcl::PCLPointCloud2();
+  cloud->width = static_cast<std::uint32_t>(voxels.size());
+  cloud->height = 1;
+  cloud->is_dense = true;
+  cloud->point_step = sizeof(OccupiedVoxel);
+  cloud->row_step = cloud->point_step * cloud->width;
   const char* names[] = {"x", "y", "z", "occupancy"};
   for (std::uint32_t f = 0; f < 4; ++f) {
     pcl::PCLPointField field;
@@ -171,8 +170,16 @@ bool addPointCloud(const std::vector<OccupiedVoxel>& voxels, const std::string& 
     field.offset = 4 * f;
     field.datatype = pcl::PCLPointField::FLOAT32;
     field.count = 1;
-    cloud.fields.push_back(field);
+    cloud->fields.push_back(field);
   }
+  const auto* bytes = reinterpret_cast<const std::uint8_t*>(voxels.data());
+  cloud->data.assign(bytes, bytes + voxels.size() * sizeof(OccupiedVoxel));
+}
+
+bool addPointCloud(const std::vector<OccupiedVoxel>& voxels, const std::string& path, FileSet* files,
+                   std::string* error) {
+  pcl::PCLPointCloud2 cloud;
+  occupiedVoxelsCloud(voxels, &cloud);
   // PCL's own header; the data follow it as PCDWriter::writeBinary puts them (the points packed).
   pcl::PCDWriter writer;
   std::string bytes;
@@ -187,7 +194,7 @@ bool addPointCloud(const std::vector<OccupiedVoxel>& voxels, const std::string& 
     return false;
   }
   bytes += "DATA binary\n";  // as PCDWriter::writeBinary ends the header
-  bytes.append(reinterpret_cast<const char*>(voxels.data()), voxels.size() * sizeof(OccupiedVoxel));
+  bytes.append(reinterpret_cast<const char*>(cloud.data.data()), cloud.data.size());
   files->emplace_back(path, std::move(bytes));
   return true;
 }

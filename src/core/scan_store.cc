@@ -1,8 +1,7 @@
 #include "octo_slice_mapper/internal/scan_store.h"
 
-#include <cstring>
-
 #include <cmath>
+#include <cstring>
 
 namespace octo_slice_mapper {
 

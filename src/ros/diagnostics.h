@@ -14,7 +14,6 @@ namespace ros_adapter {
 
 // One input topic's own counts (a robot with several lidars sees which one stopped or drops).
 struct TopicCounters {
-  std::string kind;  // "scan" or "point cloud"
   std::uint64_t received = 0, inserted = 0;
   std::uint64_t missed = 0, lost = 0;  // as NodeCounters' below, for this topic alone
 };

@@ -131,7 +131,7 @@ void MapperNode::connectAll(const std::string& topics, std::uint32_t queue, cons
     input->topic = nh_.resolveName(topic);
     {
       std::lock_guard<std::mutex> lock(counters_mutex_);
-      counters_.topics[input->topic].kind = Kind<M>::kName;
+      counters_.topics[input->topic];  // listed on /diagnostics from the start, at 0
     }
     connect(topic, queue, hints, input);
   }

@@ -16,7 +16,8 @@ namespace ros_adapter {
 struct NodeOptions {
   // The input topics, resolved in the node's namespace: names separated by spaces or commas (a
   // YAML list is read the same). Each is subscribed to on its own, placed with its own frame
-  // through tf2 and counted on its own on /diagnostics; all go into one map in arrival order.
+  // through tf2 and counted on its own on /diagnostics; all go into one map, each topic in its
+  // arrival order.
   std::string scan_topics = "scan";       // sensor_msgs/LaserScan
   std::string cloud_topics = "cloud_in";  // sensor_msgs/PointCloud2
   std::string frame_id = "odom";     // fixed frame the map is built in (the odometry is the pose oracle)

@@ -1,36 +1,21 @@
 #include "ros/occupied_voxels_publisher.h"
 
-#include <sensor_msgs/PointField.h>
+#include <pcl/PCLPointCloud2.h>
+#include <pcl_conversions/pcl_conversions.h>
 
 #include <algorithm>
-#include <cstring>
 
 namespace octo_slice_mapper {
 namespace ros_adapter {
 
 sensor_msgs::PointCloud2 occupiedVoxelsCloud(const std::vector<OccupiedVoxel>& voxels, const std::string& frame_id,
                                              const ros::Time& stamp) {
-  static_assert(sizeof(OccupiedVoxel) == 16, "four packed floats, as the fields declare");
+  pcl::PCLPointCloud2 cloud;
+  octo_slice_mapper::occupiedVoxelsCloud(voxels, &cloud);
   sensor_msgs::PointCloud2 msg;
+  pcl_conversions::moveFromPCL(cloud, msg);
   msg.header.frame_id = frame_id;
   msg.header.stamp = stamp;
-  msg.height = 1;
-  msg.width = static_cast<std::uint32_t>(voxels.size());
-  const char* names[] = {"x", "y", "z", "occupancy"};
-  for (std::uint32_t f = 0; f < 4; ++f) {
-    sensor_msgs::PointField field;
-    field.name = names[f];
-    field.offset = 4 * f;
-    field.datatype = sensor_msgs::PointField::FLOAT32;
-    field.count = 1;
-    msg.fields.push_back(field);
-  }
-  msg.is_bigendian = false;
-  msg.point_step = sizeof(OccupiedVoxel);
-  msg.row_step = msg.point_step * msg.width;
-  msg.is_dense = true;
-  msg.data.resize(voxels.size() * sizeof(OccupiedVoxel));
-  if (!voxels.empty()) std::memcpy(msg.data.data(), voxels.data(), msg.data.size());
   return msg;
 }
 

@@ -20,7 +20,7 @@
 namespace octo_slice_mapper {
 namespace ros_adapter {
 
-// The voxels as a cloud of one row: fields x, y, z, occupancy (FLOAT32, packed), dense.
+// The voxels as occupiedVoxelsCloud (map_io.h) makes them, as a message.
 sensor_msgs::PointCloud2 occupiedVoxelsCloud(const std::vector<OccupiedVoxel>& voxels, const std::string& frame_id,
                                              const ros::Time& stamp);
 
