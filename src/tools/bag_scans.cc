@@ -1,7 +1,5 @@
 #include "bag_scans.h"
 
-#include <set>
-
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 #include <sensor_msgs/LaserScan.h>
@@ -10,6 +8,8 @@
 #include <tf2/exceptions.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <tf2_msgs/TFMessage.h>
+
+#include <set>
 
 #include "ros/laser_scan_conversion.h"
 #include "ros/point_cloud_conversion.h"
