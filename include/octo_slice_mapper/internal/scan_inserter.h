@@ -171,8 +171,8 @@ class ScanInserter {
   void traceIntoWindow(const Eigen::Vector3d& origin, const octomap::OcTreeKey& origin_key,
                        const std::vector<Beam>& beams, double half_angle, int shared_free_run = 0);
   // Which walks an instantiation of traceBeams holds. Each walk's loop is best compiled alone:
-  // compiled beside a cloud's backward walk, the forward walk kept less in registers and a
-  // session's insertion ran more instructions.
+  // compiled beside a cloud's backward walk, the forward walk keeps less in registers and runs
+  // more instructions per voxel.
   enum class Walks {
     kAll,    // rays walked backwards for a frame's shared free space, or forwards
     kSpace,  // rays walked forwards
