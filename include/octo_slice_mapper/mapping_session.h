@@ -118,6 +118,7 @@ class MappingSession {
 
  private:
   class Lock;  // the lock, timed
+  class Loan;  // ends a snapshot's loan of the octree on every way out
   // Writes the pass's result into the map in strips of rows, each under the lock on its own, so
   // that scans are inserted in between.
   void applyOptimized(const GridImage& grid);

@@ -77,6 +77,22 @@ InsertResult MappingSession::insertPrepared(PreparedCloud prepared, std::uint64_
   return recordInsert(mapper_.insert(cloud));
 }
 
+// Scans keep going into the insertion cache while the octree is lent (Mapper::snapshot); the loan
+// ends under the lock when this goes out of scope, on every way out.
+class MappingSession::Loan {
+ public:
+  explicit Loan(MappingSession* session) : session_(session) {}
+  ~Loan() {
+    Lock lock(session_);
+    session_->mapper_.endSnapshot();
+  }
+  Loan(const Loan&) = delete;
+  Loan& operator=(const Loan&) = delete;
+
+ private:
+  MappingSession* session_;
+};
+
 SaveOutcome MappingSession::save(const std::string& prefix, bool with_global_pass, const ProgressFn& progress) {
   std::lock_guard<std::mutex> one(one_at_a_time_);
   MapSnapshot snapshot;
@@ -90,17 +106,9 @@ SaveOutcome MappingSession::save(const std::string& prefix, bool with_global_pas
     resolution = mapper_.options().resolution;
     saved_version = version_;
   }
-  // Scans keep going into the insertion cache while the octree is lent; the loan ends on every way out.
-  struct Loan {
-    MappingSession* session;
-    ~Loan() {
-      Lock lock(session);
-      session->mapper_.endSnapshot();
-    }
-  };
   SaveOutcome out;
   {
-    Loan loan{this};
+    Loan loan(this);
     if (with_global_pass && snapshot.scans.empty()) {
       out.note = "global pass skipped: no kept scans (keep_scans is false, or nothing inserted): the incremental map saved";
     } else if (with_global_pass) {
@@ -129,15 +137,8 @@ bool MappingSession::occupiedVoxels(std::vector<OccupiedVoxel>* voxels, std::uin
     snapshot = mapper_.snapshot(/*with_scans=*/false, /*with_slice=*/false);
     *changes = changes_;
   }
-  try {
-    *voxels = octo_slice_mapper::occupiedVoxels(*snapshot.tree);
-  } catch (...) {
-    Lock lock(this);
-    mapper_.endSnapshot();
-    throw;
-  }
-  Lock lock(this);
-  mapper_.endSnapshot();
+  Loan loan(this);
+  *voxels = octo_slice_mapper::occupiedVoxels(*snapshot.tree);
   return true;
 }
 
