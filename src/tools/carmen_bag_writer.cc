@@ -5,11 +5,9 @@
 #include <sensor_msgs/LaserScan.h>
 #include <tf2_msgs/TFMessage.h>
 
-#include <cerrno>
 #include <cmath>
-#include <cstdio>
-#include <cstring>
 
+#include "bag_file.h"
 #include "planar_transform.h"
 
 namespace octo_slice_mapper {
@@ -17,9 +15,7 @@ namespace tools {
 
 bool writeCarmenBag(CarmenLogReader* reader, const std::string& bag_path, const CarmenBagOptions& options,
                     CarmenBagReport* report, std::string* error, const std::function<void(double)>& progress) {
-  const std::string partial = bag_path + ".partial";
-  try {
-    rosbag::Bag bag(partial, rosbag::bagmode::Write);
+  return writeBagWhole(bag_path, [&](rosbag::Bag& bag, std::string* why) {
     LogScan record;
     double last_stamp = -1.0;
     bool wrote_static = false;
@@ -68,25 +64,14 @@ bool writeCarmenBag(CarmenLogReader* reader, const std::string& bag_path, const 
         progress(double(reader->bytesRead()) / reader->fileSize());
       }
     }
-    bag.close();
-  } catch (const std::exception& e) {
-    std::remove(partial.c_str());
-    *error = bag_path + ": " + e.what();
-    return false;
-  }
-  report->bad_lines = reader->problemCount();
-  report->log_error = reader->endError();
-  if (report->scans == 0) {
-    std::remove(partial.c_str());
-    *error = "no laser scans in the log";
-    return false;
-  }
-  if (std::rename(partial.c_str(), bag_path.c_str()) != 0) {
-    *error = "cannot rename " + partial + ": " + std::strerror(errno);
-    std::remove(partial.c_str());
-    return false;
-  }
-  return true;
+    report->bad_lines = reader->problemCount();
+    report->log_error = reader->endError();
+    if (report->scans == 0) {
+      *why = "no laser scans in the log";
+      return false;
+    }
+    return true;
+  }, error);
 }
 
 }  // namespace tools

@@ -10,13 +10,14 @@
 // floor, or whose camera mount is off by a degree or two, would record them.
 #include <ros/time.h>
 #include <rosbag/bag.h>
+#include <tf2_eigen/tf2_eigen.h>
 #include <tf2_msgs/TFMessage.h>
 
 #include <cmath>
-#include <cstdio>
 #include <iostream>
 #include <string>
 
+#include "bag_file.h"
 #include "progress_bar.h"
 #include "ros/point_cloud_conversion.h"
 #include "tum_sequence.h"
@@ -66,32 +67,24 @@ int main(int argc, char** argv) {
   // The world as the bag's fixed frame sees it: turned about x, then moved down.
   const Eigen::Isometry3d world = Eigen::Translation3d(0.0, 0.0, -lower) *
                                   Eigen::AngleAxisd(tilt_deg * M_PI / 180.0, Eigen::Vector3d::UnitX());
-  const std::string partial = bag_path + ".partial";
   const std::string optical = "camera_depth_optical_frame";
   tools::ProgressBar bar;
   std::size_t written = 0;
-  try {
-    rosbag::Bag bag(partial, rosbag::bagmode::Write);
+  const bool ok = tools::writeBagWhole(bag_path, [&](rosbag::Bag& bag, std::string* why) {
     for (std::size_t k = 0; k < frames.size(); ++k) {
       bar.update("converting", double(k) / frames.size());
       int width = 0, height = 0;
       std::vector<std::uint16_t> pixels;
-      if (!tools::readDepthPng(frames[k].image, &width, &height, &pixels, &error)) {
-        std::cerr << "tum2bag: " << error << ": frame left out\n";
+      std::string unread;
+      if (!tools::readDepthPng(frames[k].image, &width, &height, &pixels, &unread)) {
+        std::cerr << "tum2bag: " << unread << ": frame left out\n";
         continue;
       }
       const ros::Time stamp(frames[k].stamp);
-      const Eigen::Isometry3d pose = world * frames[k].pose;
-      geometry_msgs::TransformStamped t;
+      geometry_msgs::TransformStamped t = tf2::eigenToTransform(world * frames[k].pose);
       t.header.stamp = stamp;
       t.header.frame_id = fixed_frame;
       t.child_frame_id = optical;
-      t.transform.translation.x = pose.translation().x();
-      t.transform.translation.y = pose.translation().y();
-      t.transform.translation.z = pose.translation().z();
-      const Eigen::Quaterniond q(pose.linear());
-      t.transform.rotation.x = q.x(), t.transform.rotation.y = q.y(), t.transform.rotation.z = q.z();
-      t.transform.rotation.w = q.w();
       tf2_msgs::TFMessage tf;
       tf.transforms.push_back(t);
       bag.write("/tf", stamp, tf);
@@ -102,18 +95,14 @@ int main(int argc, char** argv) {
       bag.write("/camera/depth/points", stamp + ros::Duration(0.001), cloud);  // after its pose
       ++written;
     }
-    bag.close();
-  } catch (const std::exception& e) {
-    std::remove(partial.c_str());
-    std::cerr << "tum2bag: " << bag_path << ": " << e.what() << "\n";
-    return 1;
-  }
+    if (written == 0) *why = folder + ": no depth image could be read";
+    return written > 0;
+  }, &error);
   bar.finish();
-  if (std::rename(partial.c_str(), bag_path.c_str()) != 0) {
-    std::remove(partial.c_str());
-    std::cerr << "tum2bag: cannot rename " << partial << " to " << bag_path << "\n";
+  if (!ok) {
+    std::cerr << "tum2bag: " << error << "\n";
     return 1;
   }
   std::cout << "tum2bag: wrote " << bag_path << " (" << written << " depth frames of " << frames.size() << ")\n";
-  return written > 0 ? 0 : 1;
+  return 0;
 }
