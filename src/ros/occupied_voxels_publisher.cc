@@ -3,8 +3,6 @@
 #include <pcl/PCLPointCloud2.h>
 #include <pcl_conversions/pcl_conversions.h>
 
-#include <algorithm>
-
 namespace octo_slice_mapper {
 namespace ros_adapter {
 
@@ -21,21 +19,12 @@ sensor_msgs::PointCloud2 occupiedVoxelsCloud(const std::vector<OccupiedVoxel>& v
 
 OccupiedVoxelsPublisher::OccupiedVoxelsPublisher(ros::NodeHandle pnh, MappingSession* session, std::string frame_id,
                                                  double period)
-    : session_(session), frame_id_(std::move(frame_id)) {
-  ros::NodeHandle own(pnh);
-  own.setCallbackQueue(&queue_);
-  publisher_ = own.advertise<sensor_msgs::PointCloud2>("occupied_voxels", 1, /*latch=*/true);
-  timer_ = own.createWallTimer(ros::WallDuration(std::max(0.05, period)), &OccupiedVoxelsPublisher::tick, this);
-  spinner_ = std::make_unique<ros::AsyncSpinner>(1, &queue_);
-  spinner_->start();
-}
+    : session_(session),
+      frame_id_(std::move(frame_id)),
+      publisher_(pnh.advertise<sensor_msgs::PointCloud2>("occupied_voxels", 1, /*latch=*/true)),
+      timer_(pnh, period, [this] { tick(); }) {}
 
-OccupiedVoxelsPublisher::~OccupiedVoxelsPublisher() {
-  timer_.stop();
-  spinner_->stop();
-}
-
-void OccupiedVoxelsPublisher::tick(const ros::WallTimerEvent&) {
+void OccupiedVoxelsPublisher::tick() {
   if (publisher_.getNumSubscribers() == 0 || session_->changes() == published_changes_) return;
   std::vector<OccupiedVoxel> voxels;
   std::uint64_t changes = 0;

@@ -5,7 +5,6 @@
 // on (MappingSession::occupiedVoxels), so the scans never wait for the walk.
 #pragma once
 
-#include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <sensor_msgs/PointCloud2.h>
 
@@ -16,6 +15,7 @@
 
 #include "octo_slice_mapper/map_io.h"
 #include "octo_slice_mapper/mapping_session.h"
+#include "ros/own_thread_timer.h"
 
 namespace octo_slice_mapper {
 namespace ros_adapter {
@@ -27,18 +27,15 @@ sensor_msgs::PointCloud2 occupiedVoxelsCloud(const std::vector<OccupiedVoxel>& v
 class OccupiedVoxelsPublisher {
  public:
   OccupiedVoxelsPublisher(ros::NodeHandle pnh, MappingSession* session, std::string frame_id, double period);
-  ~OccupiedVoxelsPublisher();
 
  private:
-  void tick(const ros::WallTimerEvent&);
+  void tick();
 
   MappingSession* session_;
   std::string frame_id_;
   ros::Publisher publisher_;
-  ros::CallbackQueue queue_;
-  std::unique_ptr<ros::AsyncSpinner> spinner_;
-  ros::WallTimer timer_;
   std::uint64_t published_changes_ = ~std::uint64_t{0};  // the session's changes() last published
+  OwnThreadTimer timer_;  // last: ticks use all of the above
 };
 
 }  // namespace ros_adapter

@@ -12,21 +12,11 @@ OnlinePass::OnlinePass(ros::NodeHandle pnh, const GlobalOptimizerOptions& option
       slice_min_z_(slice_min_z),
       frame_id_(std::move(frame_id)),
       take_input_(std::move(take_input)),
-      on_result_(std::move(on_result)) {
-  publisher_ = pnh.advertise<nav_msgs::OccupancyGrid>("optimized_map", 1, true);
-  ros::NodeHandle own(pnh);
-  own.setCallbackQueue(&queue_);
-  timer_ = own.createWallTimer(ros::WallDuration(std::max(0.05, period)), &OnlinePass::tick, this);
-  spinner_ = std::make_unique<ros::AsyncSpinner>(1, &queue_);
-  spinner_->start();
-}
+      on_result_(std::move(on_result)),
+      publisher_(pnh.advertise<nav_msgs::OccupancyGrid>("optimized_map", 1, true)),
+      timer_(pnh, period, [this] { tick(); }) {}
 
-OnlinePass::~OnlinePass() {
-  timer_.stop();
-  spinner_->stop();
-}
-
-void OnlinePass::tick(const ros::WallTimerEvent&) {
+void OnlinePass::tick() {
   std::uint64_t generation;
   {
     std::lock_guard<std::mutex> lock(mutex_);

@@ -7,7 +7,6 @@
 #pragma once
 
 #include <nav_msgs/OccupancyGrid.h>
-#include <ros/callback_queue.h>
 #include <ros/ros.h>
 
 #include <functional>
@@ -17,6 +16,7 @@
 #include <string>
 
 #include "octo_slice_mapper/online_optimizer.h"
+#include "ros/own_thread_timer.h"
 
 namespace octo_slice_mapper {
 namespace ros_adapter {
@@ -37,7 +37,6 @@ class OnlinePass {
   using ResultFn = std::function<void(const nav_msgs::OccupancyGrid&)>;
   OnlinePass(ros::NodeHandle pnh, const GlobalOptimizerOptions& options, double resolution, double slice_min_z,
              std::string frame_id, double period, InputFn take_input, ResultFn on_result = {});
-  ~OnlinePass();
 
   // The newest published result (false before the first).
   bool latest(nav_msgs::OccupancyGrid* grid) const;
@@ -46,7 +45,7 @@ class OnlinePass {
   OnlinePassStats stats() const;
 
  private:
-  void tick(const ros::WallTimerEvent&);
+  void tick();
 
   OnlineOptimizer optimizer_;
   double slice_min_z_;
@@ -54,13 +53,11 @@ class OnlinePass {
   InputFn take_input_;
   ResultFn on_result_;
   ros::Publisher publisher_;
-  ros::CallbackQueue queue_;
-  std::unique_ptr<ros::AsyncSpinner> spinner_;
-  ros::WallTimer timer_;
   mutable std::mutex mutex_;  // guards latest_ and stats_
   std::optional<nav_msgs::OccupancyGrid> latest_;
   std::uint64_t generation_ = 0;  // counts forget()s
   OnlinePassStats stats_;
+  OwnThreadTimer timer_;  // last: ticks use all of the above
 };
 
 }  // namespace ros_adapter
