@@ -133,7 +133,7 @@ TEST(BagClouds, CloudsComeThroughTheBagsTfInOrderWithTheScans) {
   handlers.scan = [&](const Scan&) { order.push_back('s'); };
   handlers.cloud = [&](const DeferredCloud& c) {  // its points made here, as a pipeline's worker would
     order.push_back('c');
-    clouds.push_back(c.made());
+    clouds.push_back(c.made(FlyingPixelOptions()));
   };
   std::map<std::string, std::size_t> skipped;
   std::string error;

@@ -104,6 +104,7 @@ TEST(CloudInsertion, FastPathGivesTheReferenceTreeLeafForLeaf) {
     options.insert.cloud_one_ray_per_voxel = per_voxel;
     options.insert.cloud_combining = combining;
     options.insert.cloud_shared_free_run = shared_run;  // summed evidence: never shared
+    options.floor.find = false;  // the reference below measures heights from z = 0 (ScanInserterInspection)
     Mapper fast(options);
     octomap::OcTree reference(options.resolution);
     reference.setClampingThresMin(options.clamp_min);

@@ -93,7 +93,7 @@ TEST_F(CloudPipelineTest, GivesTheMapOfInsertingOneByOneInTheOrderSubmitted) {
                      }
                      DeferredCloud deferred;
                      deferred.origin = cloud.origin;
-                     deferred.points = [&cloud](std::vector<Eigen::Vector3f>* points, ReadingCounts*) {
+                     deferred.points = [&cloud](std::vector<Eigen::Vector3f>* points, ReadingCounts*, const FlyingPixelOptions&) {
                        *points = cloud.points;
                      };
                      pipeline.submit(std::move(deferred), done(1));
@@ -126,7 +126,7 @@ TEST_F(CloudPipelineTest, ARefusedCloudLosesNothingElseAndTheDestructorAppliesTh
     outside.origin = Eigen::Vector3d(1e7, 0.0, 0.0);  // beyond the octree's keys
     DeferredCloud unmade;
     unmade.origin = (*clouds_)[0].origin;
-    unmade.points = [](std::vector<Eigen::Vector3f>*, ReadingCounts*) {
+    unmade.points = [](std::vector<Eigen::Vector3f>*, ReadingCounts*, const FlyingPixelOptions&) {
       throw std::runtime_error("conversion failed");
     };
     pipeline.submit((*clouds_)[0], record);

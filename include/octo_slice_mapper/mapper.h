@@ -4,11 +4,15 @@
 #include <octomap/OcTree.h>
 
 #include <atomic>
+#include <functional>
 #include <memory>
 #include <string>
+#include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "octo_slice_mapper/optimized_map.h"
+#include "octo_slice_mapper/internal/floor_layer.h"
 #include "octo_slice_mapper/internal/scan_inserter.h"
 #include "octo_slice_mapper/internal/scan_store.h"
 #include "octo_slice_mapper/slice_grid.h"
@@ -24,7 +28,10 @@ struct MapperOptions {
   double clamp_min = 0.003;
   double clamp_max = 0.997;
   InsertOptions insert;
+  // The slice's band (and the clouds' marking band) are heights above the floor found under
+  // each cell (floor_layer.h); with no floor found, above the fixed frame's z = 0.
   SliceOptions slice;
+  FloorOptions floor;
   // The global pass: scans are kept (compactly, bounded) for it unless keep_scans is false.
   bool keep_scans = true;
   ScanStoreOptions scan_store;
@@ -67,8 +74,12 @@ struct MapperStats {
 // (Mapper::cloudPreparer); Mapper::insertPrepared applies the result.
 class CloudPreparer {
  public:
-  CloudPreparer(double resolution, const InsertOptions& options, std::uint64_t map_generation);
-  PreparedCloud prepare(const SensorCloud& cloud);
+  // `floor`: Mapper::floorStage(), or none for the floor at the fixed frame's z = 0.
+  CloudPreparer(double resolution, const InsertOptions& options, std::uint64_t map_generation, FloorStage floor = {});
+  // `await_turn`, when given, is called just before the frame's floor is asked for and returns
+  // when the frames before it have had theirs (a pipeline preparing frames in parallel).
+  PreparedCloud prepare(const SensorCloud& cloud, const std::function<void()>& await_turn = {});
+  const FlyingPixelOptions& flyingPixels() const { return inserter_.options().cloud_flying_pixels; }
   // The Mapper's inserterGeneration() it was made for.
   std::uint64_t mapGeneration() const { return map_generation_; }
   // Its own evidence window (the size of the largest frame's box) and cache.
@@ -80,6 +91,7 @@ class CloudPreparer {
   octomap::OcTree geometry_;  // empty: only its key geometry is read
   ScanInserter inserter_;
   std::uint64_t map_generation_;
+  FloorStage floor_;
 };
 
 class Mapper {
@@ -95,6 +107,11 @@ class Mapper {
   // before a reset, load or reconfigure (another geometry or model): insert that cloud anew.
   std::unique_ptr<CloudPreparer> cloudPreparer() const;
   bool insertPrepared(PreparedCloud prepared, std::uint64_t map_generation, InsertResult* result);
+  // What a depth frame is measured against: its floor found and folded into the floor layer.
+  // Safe to call without the lock that guards the Mapper, but in the order the frames are
+  // inserted (CloudPipeline keeps it); the layer lives as long as the Mapper.
+  FloorStage floorStage() const;
+  const FloorLayer& floor() const { return *floor_; }
   // Changes whenever the inserter is replaced (reset, load, reconfigure). May be read without the
   // lock that guards the Mapper (a preparer's check, MappingSession::refreshCloudPreparer).
   std::uint64_t inserterGeneration() const { return inserter_generation_.load(std::memory_order_acquire); }
@@ -163,6 +180,11 @@ class Mapper {
   // cut follow `insert`.
   static void followInsertion(MapperOptions* options);
   InsertResult record(InsertResult result, bool cloud);  // slice update + statistics
+  // The slice follows the floor layer's new levels: shifted columns, or a band moved whole.
+  void followFloor();
+  // The user's band moved to the floor level the slice stands on.
+  SliceOptions sliceBand(const SliceOptions& band) const;
+  std::vector<std::pair<std::uint32_t, int>> columnShifts() const;
   void boundUnflushed();  // keeps the insertion cache's backlog within max_unflushed_voxels
   // A snapshot's copies (the slice, its band, the kept scans if asked), without the octree.
   MapSnapshot sliceAndScans(bool with_scans) const;
@@ -173,6 +195,9 @@ class Mapper {
   std::unique_ptr<SliceGrid> slice_;
   ScanStore store_;
   MapperStats stats_;
+  std::unique_ptr<FloorLayer> floor_;
+  std::unordered_map<std::uint32_t, int> floor_levels_;  // per known floor cell, as the slice last took it
+  int slice_level_ = 0;                                  // the floor level the slice's band is set for
   bool lent_ = false;
   std::atomic<std::uint64_t> inserter_generation_{0};
 };

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "octo_slice_mapper/internal/flying_pixels.h"
+
 namespace octo_slice_mapper {
 
 // One 2D lidar sweep. Beams lie in the sensor frame's x-y plane; the sensor pose is
@@ -45,8 +47,9 @@ enum class ReadingKind : std::uint8_t {
   kInfinite,     // -inf ("too close", REP 117), and +inf when ReadingPolicy::inf_is_no_return is off
   kNegative,     // < 0
   kBelowMin,     // in [0, range_min)
+  kFlyingPixel,  // a depth camera's mixed pixel at a depth edge, floating in free air (flying_pixels.h)
 };
-constexpr int kReadingKindCount = 6;
+constexpr int kReadingKindCount = 7;
 const char* readingKindName(ReadingKind kind);
 
 struct ReadingPolicy {
@@ -59,7 +62,7 @@ ReadingKind classifyReading(float range, float range_min, float range_max, const
 
 // Per-reason counters for readings of one or many scans.
 struct ReadingCounts {
-  std::uint64_t count[kReadingKindCount] = {0, 0, 0, 0, 0, 0};
+  std::uint64_t count[kReadingKindCount] = {};
   std::uint64_t& operator[](ReadingKind k) { return count[static_cast<int>(k)]; }
   std::uint64_t operator[](ReadingKind k) const { return count[static_cast<int>(k)]; }
   std::uint64_t skipped() const;
@@ -87,13 +90,14 @@ struct SensorCloud {
 // is 1-2.5 ms that the node's scan thread no longer spends.
 struct DeferredCloud {
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();
-  // Fills in the points (map frame) and the count of those left out.
-  std::function<void(std::vector<Eigen::Vector3f>*, ReadingCounts*)> points;
+  // Fills in the points (map frame) and the count of those left out; an organized frame's
+  // flying pixels are left out by `flying`'s rule (flying_pixels.h).
+  std::function<void(std::vector<Eigen::Vector3f>*, ReadingCounts*, const FlyingPixelOptions& flying)> points;
   // The cloud, its points made now (what `points` throws goes to the caller).
-  SensorCloud made() const {
+  SensorCloud made(const FlyingPixelOptions& flying) const {
     SensorCloud cloud;
     cloud.origin = origin;
-    points(&cloud.points, &cloud.left_out);
+    points(&cloud.points, &cloud.left_out, flying);
     return cloud;
   }
 };

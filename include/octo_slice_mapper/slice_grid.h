@@ -4,6 +4,8 @@
 #include <octomap/OcTree.h>
 
 #include <cstdint>
+#include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "octo_slice_mapper/internal/key_box.h"
@@ -52,6 +54,12 @@ class SliceGrid {
   // the band's leaves. Throws std::length_error if the slice would pass options().max_cells.
   void rebuild();
   void clear();
+  // Columns whose band lies whole voxels above or below the grid's band (the floor under them
+  // is that many voxel layers off the floor the band was set for, floor_layer.h): per column
+  // (key x | key y << 16) its shift, 0 for none. The listed columns are recomputed. A column's
+  // shift stays until changed, also through rebuild() and clear().
+  void shiftColumns(const std::vector<std::pair<std::uint32_t, int>>& shifts);
+  int columnShift(std::uint16_t kx, std::uint16_t ky) const;
 
   int width() const { return width_; }
   int height() const { return height_; }
@@ -81,6 +89,12 @@ class SliceGrid {
   void ensureCovers(std::uint16_t kx0, std::uint16_t ky0, std::uint16_t kx1, std::uint16_t ky1);
   // Reads band_layers_, which findBandLayers() sets before each batch of columns.
   std::int8_t columnValue(std::uint16_t kx, std::uint16_t ky) const;
+  // A shifted column's value: each of its band's voxels looked up alone (cache, then tree).
+  std::int8_t shiftedColumnValue(std::uint16_t kx, std::uint16_t ky, int shift) const;
+  // Whether z keys [lo, hi] meet some column's band.
+  bool meetsBands(unsigned lo, unsigned hi) const {
+    return int(hi) >= int(band_lo_) + shift_min_ && int(lo) <= int(band_hi_) + shift_max_;
+  }
   void findBandLayers();
   const octomap::OcTreeNode* bandVoxel(const octomap::OcTreeNode* top, std::uint16_t kx, std::uint16_t ky,
                                        unsigned kz) const;
@@ -111,6 +125,8 @@ class SliceGrid {
   std::vector<std::uint32_t> columns_;  // updateColumns' scratch: the columns to recompute
   std::vector<std::int8_t> data_;
   std::uint64_t geometry_ = 0;
+  std::unordered_map<std::uint32_t, int> shift_;  // the shifted columns
+  int shift_min_ = 0, shift_max_ = 0;              // bounds of their shifts (and 0)
 };
 
 }  // namespace octo_slice_mapper

@@ -93,24 +93,41 @@ CloudPipeline::Ready CloudPipeline::prepare(Job job, std::unique_ptr<CloudPrepar
   ready.start = std::chrono::steady_clock::now();
   const double cpu_start = threadCpuSeconds();
   try {
+    if (!std::holds_alternative<Scan>(job.input)) session_->refreshCloudPreparer(preparer);
     if (const DeferredCloud* deferred = std::get_if<DeferredCloud>(&job.input)) {
-      job.input = deferred->made();  // from here on like any cloud (applying may need its points)
+      // From here on like any cloud (applying may need its points).
+      job.input = deferred->made((*preparer)->flyingPixels());
     }
     if (const SensorCloud* cloud = std::get_if<SensorCloud>(&job.input)) {
-      session_->refreshCloudPreparer(preparer);
       // With other workers preparing other frames, one thread per frame keeps the cores busy
       // without more threads than cores (and a thread started per frame).
       (*preparer)->setGroupingThreads(workers_.size() > 1 ? 1 : 0);
-      ready.prepared = (*preparer)->prepare(*cloud);
+      ready.prepared = (*preparer)->prepare(*cloud, [this, &job] { awaitFloorTurn(job.ticket); });
       ready.map_generation = (*preparer)->mapGeneration();
     }
   } catch (const std::exception& e) {  // (out of memory): this frame is refused, the turn goes on
     ready.error = std::string("preparing the cloud failed: ") + e.what();
   }
+  endFloorTurn(job.ticket);
   ready.cpu_seconds = threadCpuSeconds() - cpu_start;
   ready.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - ready.start).count();
   ready.job = std::move(job);
   return ready;
+}
+
+// Jobs are taken in ticket order and each worker prepares its job to the end before it takes
+// another, so the job holding the turn is always being prepared: no wait here is for a job that
+// waits itself.
+void CloudPipeline::awaitFloorTurn(std::uint64_t ticket) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  changed_.wait(lock, [this, ticket] { return floor_turn_ >= ticket; });
+}
+
+void CloudPipeline::endFloorTurn(std::uint64_t ticket) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  changed_.wait(lock, [this, ticket] { return floor_turn_ >= ticket; });
+  floor_turn_ = ticket + 1;
+  changed_.notify_all();
 }
 
 void CloudPipeline::apply(Ready& ready) {

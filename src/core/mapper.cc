@@ -4,6 +4,7 @@
 #include <cmath>
 #include <functional>
 #include <stdexcept>
+#include <utility>
 
 #include "octo_slice_mapper/map_io.h"
 
@@ -21,6 +22,7 @@ Mapper::Mapper(const MapperOptions& options) : options_(options), store_(options
     throw std::invalid_argument("mapper: need 0 < clamp_min < 0.5 < clamp_max < 1");
   }
   followInsertion(&options_);
+  floor_ = std::make_unique<FloorLayer>(options.resolution, options.floor);
   adopt(std::make_unique<octomap::OcTree>(options.resolution));
 }
 
@@ -38,7 +40,8 @@ void Mapper::install(std::unique_ptr<octomap::OcTree> tree, const MapperOptions&
   octomap::OcTree* target = tree ? tree.get() : tree_.get();
   // Build the new parts before swapping, so a bad option or a slice too big leaves the old map in place.
   auto inserter = std::make_unique<ScanInserter>(target, options.insert);
-  auto slice = std::make_unique<SliceGrid>(*target, options.slice, &inserter->cache());
+  auto slice = std::make_unique<SliceGrid>(*target, sliceBand(options.slice), &inserter->cache());
+  slice->shiftColumns(columnShifts());
   // The options are valid. On the same octree the new inserter starts with an empty cache and the
   // new slice reads the octree: it must hold what the old cache holds. (Flushed before the
   // options were checked, a refused reconfigure wrote into the octree.)
@@ -71,26 +74,92 @@ void Mapper::boundUnflushed() {
 }
 
 InsertResult Mapper::insertPoints(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points) {
-  return record(inserter_->insertPoints(origin, points, inserter_->model().halfAngleFor(0.0)), /*cloud=*/true);
+  const double half_angle = inserter_->model().halfAngleFor(0.0);
+  return record(inserter_->applyCloud(inserter_->prepareCloud(origin, points, half_angle, floorStage())), /*cloud=*/true);
 }
 
 InsertResult Mapper::insert(const SensorCloud& cloud) {
-  InsertResult result = inserter_->insertPoints(cloud.origin, cloud.points, inserter_->model().halfAngleFor(0.0));
+  const double half_angle = inserter_->model().halfAngleFor(0.0);
+  InsertResult result = inserter_->applyCloud(inserter_->prepareCloud(cloud.origin, cloud.points, half_angle, floorStage()));
   result.readings += cloud.left_out;
   return record(std::move(result), /*cloud=*/true);
 }
 
-CloudPreparer::CloudPreparer(double resolution, const InsertOptions& options, std::uint64_t map_generation)
-    : geometry_(resolution), inserter_(&geometry_, options), map_generation_(map_generation) {}
+FloorStage Mapper::floorStage() const {
+  // The view reaches as far as a return may mark.
+  const InsertOptions& o = options_.insert;
+  const double reach = o.cloud_max_range > 0.0 ? o.cloud_max_range : o.max_range > 0.0 ? o.max_range : 30.0;
+  FloorLayer* layer = floor_.get();
+  return [layer, reach](const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples) {
+    return layer->observe(sensor, samples, reach);
+  };
+}
 
-PreparedCloud CloudPreparer::prepare(const SensorCloud& cloud) {
-  PreparedCloud prepared = inserter_.prepareCloud(cloud.origin, cloud.points, inserter_.model().halfAngleFor(0.0));
+SliceOptions Mapper::sliceBand(const SliceOptions& band) const {
+  if (slice_level_ == 0) return band;
+  // Whole voxel layers: the centres of the layers the band's ends are in, moved. (Moving the ends
+  // themselves could take one across a layer boundary by rounding: 0.05 m + 30 layers is
+  // -1.45 m, a boundary.)
+  SliceOptions moved = band;
+  const auto shifted = [&](double z) {
+    octomap::OcTreeKey key;
+    if (!coordToKeySafe(*tree_, 0.0, 0.0, z, &key)) return z;  // SliceGrid refuses it
+    return tree_->keyToCoord(static_cast<octomap::key_type>(int(key[2]) + slice_level_));
+  };
+  moved.min_z = shifted(band.min_z);
+  moved.max_z = shifted(band.max_z);
+  return moved;
+}
+
+std::vector<std::pair<std::uint32_t, int>> Mapper::columnShifts() const {
+  std::vector<std::pair<std::uint32_t, int>> shifts;
+  for (const auto& [column, level] : floor_levels_) {
+    if (level != slice_level_) shifts.emplace_back(column, level - slice_level_);
+  }
+  return shifts;
+}
+
+void Mapper::followFloor() {
+  FloorLayer::LevelChanges changes = floor_->takeLevelChanges();
+  std::vector<std::pair<std::uint32_t, int>> shifts;
+  shifts.reserve(changes.cells.size());
+  for (const auto& [column, level] : changes.cells) {
+    if (level == FloorLayer::kNoLevel) floor_levels_.erase(column);
+    else floor_levels_[column] = level;
+    shifts.emplace_back(column, level == FloorLayer::kNoLevel ? 0 : level - slice_level_);
+  }
+  if (changes.fallback_level != slice_level_) {
+    // The band moves whole: a slice built anew (as reconfigure's), the inserter kept.
+    slice_level_ = changes.fallback_level;
+    auto slice = std::make_unique<SliceGrid>(*tree_, sliceBand(options_.slice), &inserter_->cache());
+    slice->shiftColumns(columnShifts());
+    slice->rebuild();
+    slice_ = std::move(slice);
+  } else {
+    slice_->shiftColumns(shifts);
+  }
+}
+
+CloudPreparer::CloudPreparer(double resolution, const InsertOptions& options, std::uint64_t map_generation,
+                             FloorStage floor)
+    : geometry_(resolution), inserter_(&geometry_, options), map_generation_(map_generation), floor_(std::move(floor)) {}
+
+PreparedCloud CloudPreparer::prepare(const SensorCloud& cloud, const std::function<void()>& await_turn) {
+  FloorStage floor = floor_;
+  if (floor && await_turn) {
+    floor = [this, &await_turn](const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples) {
+      await_turn();
+      return floor_(sensor, samples);
+    };
+  }
+  PreparedCloud prepared =
+      inserter_.prepareCloud(cloud.origin, cloud.points, inserter_.model().halfAngleFor(0.0), floor);
   prepared.result.readings += cloud.left_out;
   return prepared;
 }
 
 std::unique_ptr<CloudPreparer> Mapper::cloudPreparer() const {
-  return std::make_unique<CloudPreparer>(tree_->getResolution(), options_.insert, inserterGeneration());
+  return std::make_unique<CloudPreparer>(tree_->getResolution(), options_.insert, inserterGeneration(), floorStage());
 }
 
 bool Mapper::insertPrepared(PreparedCloud prepared, std::uint64_t map_generation, InsertResult* result) {
@@ -105,6 +174,7 @@ InsertResult Mapper::record(InsertResult result, bool cloud) {
     return result;
   }
   slice_->updateColumns(result.updated_keys, result.touched, result.changes);
+  if (cloud) followFloor();
   boundUnflushed();  // after clouds too: a camera alone was never flushed before
   (cloud ? stats_.clouds_inserted : stats_.scans_inserted)++;
   (cloud ? stats_.cloud_points : stats_.readings) += result.readings;
@@ -158,6 +228,10 @@ std::vector<std::size_t> Mapper::cellsBesidePass(const GridImage& frame) const {
 
 void Mapper::reset() {
   if (lent_) throw std::logic_error("mapper: reset while the octree is lent");
+  floor_levels_.clear();
+  slice_level_ = 0;
+  floor_->reset(options_.resolution);
+  floor_->takeLevelChanges();
   adopt(std::make_unique<octomap::OcTree>(options_.resolution));
   store_.clear();
   stats_ = MapperStats();
@@ -170,12 +244,21 @@ bool Mapper::load(const std::string& path, std::string* error) {
   }
   std::unique_ptr<octomap::OcTree> tree = loadTree(path, error);
   if (!tree) return false;
+  // A saved map holds no floor layer: the loaded one is sliced from the fixed frame's z = 0 until
+  // frames find a floor again. The current floor stays if the map cannot be taken.
+  std::unordered_map<std::uint32_t, int> levels;
+  levels.swap(floor_levels_);
+  const int level = std::exchange(slice_level_, 0);
   try {
     adopt(std::move(tree));
   } catch (const std::exception& e) {
+    floor_levels_.swap(levels);
+    slice_level_ = level;
     *error = path + ": " + e.what();
     return false;
   }
+  floor_->reset(options_.resolution);
+  floor_->takeLevelChanges();
   return true;
 }
 

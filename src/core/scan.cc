@@ -14,6 +14,7 @@ const char* readingKindName(ReadingKind kind) {
     case ReadingKind::kInfinite: return "inf";
     case ReadingKind::kNegative: return "negative";
     case ReadingKind::kBelowMin: return "below_min";
+    case ReadingKind::kFlyingPixel: return "flying_pixel";
   }
   return "unknown";
 }

@@ -91,11 +91,11 @@ InsertResult ScanInserter::insertPoints(const Eigen::Vector3d& origin, const std
 }
 
 PreparedCloud ScanInserter::prepareCloud(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points,
-                                         double half_angle) {
+                                         double half_angle, const FloorStage& floor) {
   PreparedCloud prepared;
   prepared.result.error = originError(*tree_, origin);
   if (!prepared.result.ok()) return prepared;
-  const std::vector<Beam> beams = cloudBeams(origin, points, &prepared.result.readings);
+  const std::vector<Beam> beams = cloudBeams(origin, points, &prepared.result.readings, floor);
   evidence_.setCombining(options_.cloud_combining);
   // Summed evidence counts every ray: none may stop early.
   const int shared_free_run =
@@ -114,7 +114,7 @@ InsertResult ScanInserter::applyCloud(PreparedCloud prepared) {
 }
 
 std::vector<Beam> ScanInserter::cloudBeams(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points,
-                                           ReadingCounts* counts) const {
+                                           ReadingCounts* counts, const FloorStage& floor) const {
   ReadingCounts ignored;
   ReadingCounts& c = counts ? *counts : ignored;
   const double max_range = options_.cloud_max_range > 0.0 ? options_.cloud_max_range
@@ -124,6 +124,7 @@ std::vector<Beam> ScanInserter::cloudBeams(const Eigen::Vector3d& origin, const 
   // The beam to a return at `p`, standing for `n` points: summed, it counts n times; where
   // occupied wins, once (as each of the n rays would).
   const bool summed = options_.cloud_combining == EvidenceCombining::kSum;
+  FloorView ground;  // the fixed frame's z = 0 until asked
   const auto beamTo = [&](const Eigen::Vector3d& p, std::uint64_t n) {
     const Eigen::Vector3d v = p - origin;
     const double r = v.norm();
@@ -132,11 +133,22 @@ std::vector<Beam> ScanInserter::cloudBeams(const Eigen::Vector3d& origin, const 
       return;
     }
     c[ReadingKind::kHit] += n;
-    const bool marks = r <= max_range && p.z() >= options_.cloud_mark_min_z && p.z() <= options_.cloud_mark_max_z;
+    const double height = p.z() - ground.heightAt(p.x(), p.y());
+    const double near = std::max(0.0, r - options_.cloud_noise_near);
+    const double sigma = options_.cloud_noise_base + options_.cloud_noise_quadratic * near * near;
+    const bool marks = r <= max_range && height >= options_.cloud_mark_min_z &&
+                       height > options_.cloud_mark_sigmas * sigma && height <= options_.cloud_mark_max_z;
     beams.push_back({v / r, tracedLength(*tree_, p, r, max_range), marks, Eigen::Vector3d::Zero(),
                      summed ? static_cast<float>(n) : 1.0f});
   };
   if (!options_.cloud_one_ray_per_voxel) {
+    if (floor) {  // every 16th point: a sample as dense as a frame's end voxels
+      std::vector<Eigen::Vector3d> samples;
+      for (std::size_t i = 0; i < points.size(); i += 16) {
+        if (points[i].allFinite()) samples.push_back(points[i].cast<double>());
+      }
+      ground = floor(origin, samples);
+    }
     beams.reserve(points.size());
     for (const Eigen::Vector3f& p : points) {
       if (p.allFinite()) beamTo(p.cast<double>(), 1);
@@ -146,9 +158,13 @@ std::vector<Beam> ScanInserter::cloudBeams(const Eigen::Vector3d& origin, const 
   }
   const EndVoxels grouped = groupByEndVoxel(points, tree_->getResolution(), tree_->getTreeDepth(), grouping_threads_);
   c += grouped.non_finite;
+  std::vector<Eigen::Vector3d> means;
+  means.reserve(grouped.voxels.size());
+  for (const EndVoxel& g : grouped.voxels) means.push_back(g.sum / static_cast<double>(g.n));
+  if (floor) ground = floor(origin, means);
   for (const Eigen::Vector3d& q : grouped.outside) beamTo(q, 1);  // its own beam (dropped where it leaves)
   beams.reserve(beams.size() + grouped.voxels.size());
-  for (const EndVoxel& g : grouped.voxels) beamTo(g.sum / static_cast<double>(g.n), g.n);
+  for (std::size_t i = 0; i < means.size(); ++i) beamTo(means[i], grouped.voxels[i].n);
   return beams;
 }
 

@@ -123,6 +123,9 @@ void SliceGrid::findBandLayers() {
 // them, and a tilted scan's columns have several known layers (two exp() per layer were a quarter
 // of its slice update).
 std::int8_t SliceGrid::columnValue(std::uint16_t kx, std::uint16_t ky) const {
+  if (!shift_.empty()) {
+    if (const int shift = columnShift(kx, ky)) return shiftedColumnValue(kx, ky, shift);
+  }
   const octomap::OcTreeNode* top = nullptr;
   bool searched = false;  // the descent to `top` only when a layer needs the tree
   bool known = false;
@@ -154,6 +157,53 @@ std::int8_t SliceGrid::columnValue(std::uint16_t kx, std::uint16_t ky) const {
   // edge, and the weak evidence there (45 %, say) must not hide the layer they crossed (else a
   // degree of tilt turns many free cells grey, unknown to map_server).
   return OccupancyPercent::of(most >= 0.0f ? most : least);
+}
+
+std::int8_t SliceGrid::shiftedColumnValue(std::uint16_t kx, std::uint16_t ky, int shift) const {
+  bool known = false;
+  float most = -std::numeric_limits<float>::infinity(), least = std::numeric_limits<float>::infinity();
+  const unsigned cell = LayerCache::cellIndex(kx, ky);
+  const int lo = std::max(0, int(band_lo_) + shift), hi = std::min(0xFFFF, int(band_hi_) + shift);
+  for (int kz = lo; kz <= hi; ++kz) {
+    const LayerCache::Layer* layer = cache_ ? cache_->findLayer(std::uint16_t(kz)) : nullptr;
+    const LayerCache::Tile* tile = layer ? layer->tile(kx, ky) : nullptr;
+    float value = tile ? tile->value[cell] : LayerCache::unloadedValue();
+    if (LayerCache::isUnloaded(value)) {
+      const octomap::OcTreeNode* node = tree_.search(octomap::OcTreeKey(kx, ky, std::uint16_t(kz)));
+      if (!node) continue;
+      value = node->getLogOdds();
+    }
+    if (!LayerCache::isKnown(value)) continue;
+    most = std::max(most, value);
+    least = std::min(least, value);
+    known = true;
+  }
+  if (!known) return kUnknownCell;
+  return OccupancyPercent::of(most >= 0.0f ? most : least);  // columnValue's rule
+}
+
+int SliceGrid::columnShift(std::uint16_t kx, std::uint16_t ky) const {
+  if (shift_.empty()) return 0;
+  const auto it = shift_.find(std::uint32_t(kx) | std::uint32_t(ky) << 16);
+  return it == shift_.end() ? 0 : it->second;
+}
+
+void SliceGrid::shiftColumns(const std::vector<std::pair<std::uint32_t, int>>& shifts) {
+  if (shifts.empty()) return;
+  KeyBox box;
+  for (const auto& [column, shift] : shifts) {
+    if (shift == 0) shift_.erase(column);
+    else shift_[column] = shift;
+    box.add(octomap::OcTreeKey(std::uint16_t(column & 0xFFFF), std::uint16_t(column >> 16), 0));
+  }
+  shift_min_ = shift_max_ = 0;
+  for (const auto& [column, shift] : shift_) shift_min_ = std::min(shift_min_, shift), shift_max_ = std::max(shift_max_, shift);
+  ensureCovers(box.min[0], box.min[1], box.max[0], box.max[1]);
+  findBandLayers();
+  for (const auto& [column, shift] : shifts) {
+    const std::uint16_t kx = std::uint16_t(column & 0xFFFF), ky = std::uint16_t(column >> 16);
+    data_[std::size_t(ky - origin_key_y_) * width_ + (kx - origin_key_x_)] = columnValue(kx, ky);
+  }
 }
 
 // Grows the grid (keeping its contents) so that it covers the key rectangle. Growth adds a
@@ -192,7 +242,7 @@ void SliceGrid::ensureCovers(std::uint16_t kx0, std::uint16_t ky0, std::uint16_t
 }
 
 void SliceGrid::update(const KeyBox& box) {
-  if (box.empty() || box.max[2] < band_lo_ || box.min[2] > band_hi_) return;
+  if (box.empty() || !meetsBands(box.min[2], box.max[2])) return;
   ensureCovers(box.min[0], box.min[1], box.max[0], box.max[1]);
   noteLayers(box.min[2], box.max[2]);  // what changed there is not known: read those layers
   recompute(box);
@@ -210,7 +260,7 @@ void SliceGrid::recompute(const KeyBox& box) {
 
 void SliceGrid::updateColumns(const std::vector<octomap::OcTreeKey>& keys, const KeyBox& box,
                               const std::vector<VoxelChange>& changes) {
-  if (box.empty() || box.max[2] < band_lo_ || box.min[2] > band_hi_) return;
+  if (box.empty() || !meetsBands(box.min[2], box.max[2])) return;
   ensureCovers(box.min[0], box.min[1], box.max[0], box.max[1]);
   const bool with_changes = changes.size() == keys.size();
   const OccupancyPercent& percent = OccupancyPercent::table();
@@ -228,11 +278,12 @@ void SliceGrid::updateColumns(const std::vector<octomap::OcTreeKey>& keys, const
   noteLayers(box.min[2], box.max[2]);
   for (std::size_t i = 0; i < keys.size(); ++i) {
     const octomap::OcTreeKey& k = keys[i];
-    if (k[2] < band_lo_ || k[2] > band_hi_) continue;
+    const int shift = shift_.empty() ? 0 : columnShift(k[0], k[1]);
+    if (int(k[2]) < int(band_lo_) + shift || int(k[2]) > int(band_hi_) + shift) continue;
     const std::uint32_t index = std::uint32_t(k[1] - origin_key_y_) * std::uint32_t(width_) + (k[0] - origin_key_x_);
     std::int8_t& cell = data_[index];
     if (cell == kPendingCell) continue;
-    if (with_changes) {
+    if (with_changes && shift == 0) {
       const std::int8_t after = followChange(cell, changes[i], percent);
       if (after != kPendingCell) {
         cell = after;
@@ -264,7 +315,7 @@ void SliceGrid::rebuild() {
     const unsigned span = 1u << (tree_.getTreeDepth() - it.getDepth());
     const unsigned base_mask = ~(span - 1);
     octomap::OcTreeKey lo(k[0] & base_mask, k[1] & base_mask, k[2] & base_mask);
-    if (lo[2] + span - 1 < band_lo_ || lo[2] > band_hi_) continue;
+    if (!meetsBands(lo[2], lo[2] + span - 1)) continue;
     noteLayers(lo[2], lo[2] + span - 1);
     KeyBox leaf;
     leaf.add(lo);

@@ -2,6 +2,7 @@
 
 #include <diagnostic_msgs/DiagnosticStatus.h>
 
+#include <cmath>
 #include <cstdio>
 #include <sstream>
 
@@ -98,6 +99,17 @@ diagnostic_msgs::DiagnosticArray toDiagnostics(const NodeCounters& c, const Node
   add("known_cells", std::to_string(c.known_cells));
   add("kept_scans", std::to_string(c.kept_scans));
   add("revisit_scans_not_kept", std::to_string(c.revisit_scans_not_kept));
+  if (c.clouds_inserted) {
+    char text[32];
+    add("floor_source", c.floor_source);
+    std::snprintf(text, sizeof text, "%.3f", c.floor_height);
+    add("floor_height", text);
+    std::snprintf(text, sizeof text, "%.2f", c.floor_tilt * 180.0 / M_PI);
+    add("floor_tilt_deg", text);
+    add("floor_frames_found", std::to_string(c.floor_frames_found));
+    add("floor_frames_without", std::to_string(c.floor_frames_without));
+    add("floor_cells", std::to_string(c.floor_cells));
+  }
   add("online_passes", std::to_string(c.online_passes));
   std::snprintf(ms, sizeof(ms), "%.3f", c.online_pass_seconds);
   add("online_pass_s", ms);

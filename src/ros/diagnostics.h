@@ -53,6 +53,11 @@ struct NodeCounters {
   // how far its map was behind the newest scan when published (s).
   std::uint64_t online_passes = 0;
   double online_pass_seconds = 0.0, optimized_map_age = 0.0;
+  // Where the depth frames' floor came from (FloorStatus), shown once a frame came.
+  std::string floor_source;
+  double floor_height = 0.0, floor_tilt = 0.0;
+  std::uint64_t floor_frames_found = 0, floor_frames_without = 0;
+  std::size_t floor_cells = 0;
   std::uint64_t skippedTotal() const;
 };
 

@@ -381,6 +381,13 @@ void MapperNode::publishDiagnostics(const ros::WallTimerEvent&) {
     c.known_cells = mapper.slice().knownCells();
     c.kept_scans = mapper.scanStore().scans().size();
     c.revisit_scans_not_kept = mapper.scanStore().skippedAsRevisit();
+    const FloorStatus floor = mapper.floor().status();
+    c.floor_source = floorSourceName(floor.source);
+    c.floor_height = floor.height;
+    c.floor_tilt = floor.tilt;
+    c.floor_frames_found = floor.frames_found;
+    c.floor_frames_without = floor.frames_without;
+    c.floor_cells = floor.cells;
   });
   c.longest_service_lock_ms = session_.longestLockMs();
   c.longest_service_lock_cpu_ms = session_.longestLockCpuMs();

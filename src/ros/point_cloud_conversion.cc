@@ -200,10 +200,33 @@ Eigen::Vector3f* transformXyzIn16Bytes(const sensor_msgs::PointCloud2& msg, cons
 }  // namespace
 
 void cloudPointsInMap(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry3f& to_map,
-                      std::vector<Eigen::Vector3f>* points, ReadingCounts* left_out) {
+                      std::vector<Eigen::Vector3f>* points, ReadingCounts* left_out,
+                      const FlyingPixelOptions* flying) {
   const sensor_msgs::PointField& fx = *fieldNamed(msg, "x");
   const sensor_msgs::PointField& fy = *fieldNamed(msg, "y");
   const sensor_msgs::PointField& fz = *fieldNamed(msg, "z");
+  if (flying && flying->enabled && msg.height > 2 && msg.width > 2) {
+    // The frame as it came (sensor frame, NaN kept) for the test, then the kept points moved.
+    std::vector<Eigen::Vector3f> organized(std::size_t(msg.width) * msg.height);
+    std::size_t k = 0;
+    for (std::uint32_t row = 0; row < msg.height; ++row) {
+      const std::uint8_t* p = msg.data.data() + std::size_t(row) * msg.row_step;
+      for (std::uint32_t col = 0; col < msg.width; ++col, p += msg.point_step) {
+        organized[k++] = Eigen::Vector3f(coordinate(p, fx), coordinate(p, fy), coordinate(p, fz));
+      }
+    }
+    std::vector<std::uint8_t> flags;
+    (*left_out)[ReadingKind::kFlyingPixel] += flagFlyingPixels(organized, int(msg.width), int(msg.height), *flying, &flags);
+    const Eigen::Matrix3f rotation = to_map.linear();
+    const Eigen::Vector3f translation = to_map.translation();
+    points->resize(organized.size());
+    Eigen::Vector3f* out = points->data();
+    for (std::size_t i = 0; i < organized.size(); ++i) {
+      if (!flags[i]) out = transformOne(organized[i], rotation, translation, out, left_out);
+    }
+    points->resize(static_cast<std::size_t>(out - points->data()));
+    return;
+  }
   points->resize(std::size_t(msg.width) * msg.height);
   const bool all_float = fx.datatype == sensor_msgs::PointField::FLOAT32 &&
                          fy.datatype == sensor_msgs::PointField::FLOAT32 && fz.datatype == sensor_msgs::PointField::FLOAT32;
@@ -246,9 +269,9 @@ ScanRejection toDeferredCloud(const sensor_msgs::PointCloud2::ConstPtr& msg, con
   const ScanRejection rejection = checkCloudLayout(*msg);
   if (rejection.rejected()) return rejection;
   out->origin = sensor_pose.translation();
-  out->points = [msg, to_map = Eigen::Isometry3f(sensor_pose.cast<float>())](std::vector<Eigen::Vector3f>* points,
-                                                                              ReadingCounts* left_out) {
-    cloudPointsInMap(*msg, to_map, points, left_out);
+  out->points = [msg, to_map = Eigen::Isometry3f(sensor_pose.cast<float>())](
+                    std::vector<Eigen::Vector3f>* points, ReadingCounts* left_out, const FlyingPixelOptions& flying) {
+    cloudPointsInMap(*msg, to_map, points, left_out, &flying);
   };
   return rejection;
 }

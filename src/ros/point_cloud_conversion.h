@@ -25,8 +25,11 @@ ScanRejection checkCloudLayout(const sensor_msgs::PointCloud2& msg);
 // The cloud's finite points through `to_map` (the sensor frame's pose in the map frame), in the
 // message's order; points with a non-finite coordinate are left out and counted into `left_out`
 // (kNaN if any coordinate is NaN, else kInfinite). The layout must have passed checkCloudLayout.
+// With `flying` (and an organized cloud, height > 2), its flying pixels are left out too and
+// counted as kFlyingPixel.
 void cloudPointsInMap(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry3f& to_map,
-                      std::vector<Eigen::Vector3f>* points, ReadingCounts* left_out);
+                      std::vector<Eigen::Vector3f>* points, ReadingCounts* left_out,
+                      const FlyingPixelOptions* flying = nullptr);
 
 // Both steps: the layout checked, then the points through `sensor_pose` with the sensor's origin.
 ScanRejection toCoreCloud(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry3d& sensor_pose, SensorCloud* out);

@@ -238,14 +238,16 @@ class Feeder {
       return;
     }
     const auto t0 = Clock::now();
-    const osm::InsertResult result = session_->insert(made(item));
+    const osm::InsertResult result = session_->insert(made(item, session_->mapperOptions().insert.cloud_flying_pixels));
     *seconds += std::chrono::duration<double>(Clock::now() - t0).count();
     if (result.ok()) ok();
     else refused(result, reason, what, where);
   }
   // What a session inserts: a scan as it is, a deferred cloud with its points made.
-  static const osm::Scan& made(const osm::Scan& scan) { return scan; }
-  static osm::SensorCloud made(const osm::DeferredCloud& deferred) { return deferred.made(); }
+  static const osm::Scan& made(const osm::Scan& scan, const osm::FlyingPixelOptions&) { return scan; }
+  static osm::SensorCloud made(const osm::DeferredCloud& deferred, const osm::FlyingPixelOptions& flying) {
+    return deferred.made(flying);
+  }
   void refused(const osm::InsertResult& result, const char* reason, const char* what, const std::string& where) {
     intake_->skipped_scans[reason]++;
     if (++intake_->refused_reported <= 20) {

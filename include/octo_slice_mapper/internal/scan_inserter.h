@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "octo_slice_mapper/inverse_sensor_model.h"
+#include "octo_slice_mapper/internal/floor_layer.h"
 #include "octo_slice_mapper/internal/key_box.h"
 #include "octo_slice_mapper/internal/layer_cache.h"
 #include "octo_slice_mapper/internal/octree_batch_update.h"
@@ -37,11 +38,23 @@ struct InsertOptions {
   // Returns farther than this are cut like max_range's: cleared up to it, nothing marked
   // (0 = max_range). A depth camera's far depth is noisy (Kinect: 4 cm at 4.5 m).
   double cloud_max_range = 0.0;
-  // Only returns within this height band (map frame, m) mark a voxel occupied; those outside
-  // (the floor, the ceiling) clear up to themselves and mark nothing, so the floor stays out of
-  // the slice and a person walking away leaves no trail.
+  // Only returns within this band of heights above the floor under them (m; the floor found,
+  // see floor_layer.h, else the fixed frame's z = 0) mark a voxel occupied; those outside (the
+  // floor, the ceiling) clear up to themselves and mark nothing, so the floor stays out of the
+  // slice and a person walking away leaves no trail.
   double cloud_mark_min_z = 0.05;
   double cloud_mark_max_z = 1e9;
+  // A depth camera's noise along the ray at range r: sigma = base + quadratic (r - near)^2 (m),
+  // a Kinect v1's axial noise (Nguyen, Izadi, Lovell 2012; measured on depth, taken here on the
+  // range, which is no shorter). A return marks only when it stands more than
+  // cloud_mark_sigmas sigmas above the floor as well: a far floor return's noise (5 cm at 4 m)
+  // would cross cloud_mark_min_z, while a 5 cm step 1.5 m away (sigma 3.5 mm) still marks.
+  double cloud_noise_base = 0.0012;
+  double cloud_noise_quadratic = 0.0019;
+  double cloud_noise_near = 0.4;
+  double cloud_mark_sigmas = 3.0;
+  // An organized frame's flying pixels are left out where the points are made (DeferredCloud).
+  FlyingPixelOptions cloud_flying_pixels;
   // How a cloud's rays combine per voxel. Occupied wins (as octomap_server's insertScan): a
   // frame's rays graze the surfaces they end beside, and summed, the free evidence of hundreds of
   // them erased a table top's underside seen from below (cloud_insertion_test). With kSum each
@@ -73,6 +86,11 @@ struct InsertResult {
   std::string error;               // non-empty: the whole scan was rejected, map untouched
   bool ok() const { return error.empty(); }
 };
+
+// The floor a depth frame's returns are measured against, asked for with the sensor's position
+// and a sample of the frame's returns (map frame). Called once per frame, in the frames' order
+// where that matters (FloorLayer::observe).
+using FloorStage = std::function<FloorView(const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples)>;
 
 // A cloud's per-voxel updates, worked out before they are applied (ScanInserter::prepareCloud).
 struct PreparedCloud {
@@ -117,8 +135,10 @@ class ScanInserter {
   // depth), never its contents or the cache, so an inserter over an empty octree of the same
   // resolution gives the same result: a frame can be prepared away from the map (and its lock)
   // while scans go on; applyCloud() then puts the updates into this inserter's map.
+  // `floor`, when given, is asked once per frame for the floor its returns stand on, with the
+  // frame's sample of returns (its end-voxel means); without it the floor is the fixed frame's z = 0.
   PreparedCloud prepareCloud(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points,
-                             double half_angle);
+                             double half_angle, const FloorStage& floor = {});
   InsertResult applyCloud(PreparedCloud prepared);
 
   const InverseSensorModel& model() const { return model_; }
@@ -144,7 +164,7 @@ class ScanInserter {
 
   // A cloud's beams (InsertOptions' cloud_* rules), in a deterministic order.
   std::vector<Beam> cloudBeams(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points,
-                               ReadingCounts* counts) const;
+                               ReadingCounts* counts, const FloorStage& floor = {}) const;
   // A scan's beams.
   std::vector<Beam> beamsOf(const Scan& scan, ReadingCounts* counts);
   // Every (voxel, evidence) pair the model gives, each beam's once per voxel, before the beams

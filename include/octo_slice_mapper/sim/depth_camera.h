@@ -6,6 +6,7 @@
 
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <optional>
 #include <random>
 #include <vector>
 
@@ -18,9 +19,22 @@ struct Box {
   Eigen::Vector3d min, max;
 };
 
+// A ramp across the whole room along x: the floor rises evenly from x0 to x1 by `height` and
+// stays that high beyond x1 (a platform up to the room's wall).
+struct Ramp {
+  double x0 = 0.0, x1 = 0.0, height = 0.0;
+};
+
 struct BoxScene {
   Box room;                 // the inside of the room: rays end where they leave it
   std::vector<Box> solids;  // furniture: rays end where they enter one
+  std::optional<Ramp> ramp;  // rays end where they meet it too
+
+  // The floor's height at x: the room's bottom, or the ramp's surface.
+  double floorAt(double x) const;
+  // The office room with a ramp at x 4-5 m up to 0.10 m (5.7 degrees), a platform beyond; the
+  // step is not in it (it stood there).
+  static BoxScene officeRoomWithRamp();
 
   // 6 x 5 x 2.5 m, corner at the origin: table at (2.5..3.7, 1.5..2.3), shelf against the
   // north wall with its overhang at 0.45..0.60 m, a step 0.08 m high near the door.
@@ -41,6 +55,10 @@ struct DepthCameraSpec {
   double horizontal_fov = 0.9948, vertical_fov = 0.7505;  // rad
   double min_range = 0.5, max_range = 4.5;                 // of the depth (z in the optical frame), m
   bool noise = true;
+  // Mixed pixels at depth edges, as a Kinect gives them: where a pixel and its right or lower
+  // neighbour differ by more than 0.1 m, the pixel reads, with this probability, a depth between
+  // the two (a point floating in the air between an edge and what lies behind it).
+  double flying_pixel_probability = 0.0;
 };
 
 // The TurtleBot 2's depth camera on its base_link: 0.10 m forward, 0.30 m up, pitched down.

@@ -49,6 +49,19 @@ BoxScene BoxScene::officeRoom() {
   return s;
 }
 
+BoxScene BoxScene::officeRoomWithRamp() {
+  BoxScene s = officeRoom();
+  s.solids.pop_back();  // the step
+  s.ramp = Ramp{4.0, 5.0, 0.10};
+  return s;
+}
+
+double BoxScene::floorAt(double x) const {
+  if (!ramp || x <= ramp->x0) return room.min.z();
+  if (x >= ramp->x1) return room.min.z() + ramp->height;
+  return room.min.z() + ramp->height * (x - ramp->x0) / (ramp->x1 - ramp->x0);
+}
+
 BoxScene BoxScene::of(const FloorPlan& plan) {
   BoxScene s;
   s.room = box(plan.min_corner.x(), plan.min_corner.y(), 0.0, plan.max_corner.x(), plan.max_corner.y(), kWallHeight);
@@ -70,6 +83,21 @@ double BoxScene::castRay(const Eigen::Vector3d& origin, const Eigen::Vector3d& d
   for (const Box& b : solids) {
     slabs(b, origin, dir, &entry, &exit);
     if (entry <= exit && entry > 0.0) nearest = std::min(nearest, entry);
+  }
+  if (ramp) {
+    const double z0 = room.min.z(), slope = ramp->height / (ramp->x1 - ramp->x0);
+    // The slope: z - z0 = slope (x - x0), for x in [x0, x1].
+    const double denominator = dir.z() - slope * dir.x();
+    if (denominator != 0.0) {
+      const double t = (slope * (origin.x() - ramp->x0) - (origin.z() - z0)) / denominator;
+      const double x = origin.x() + t * dir.x();
+      if (t > 0.0 && x >= ramp->x0 && x <= ramp->x1) nearest = std::min(nearest, t);
+    }
+    // The platform: z = z0 + height for x beyond x1.
+    if (dir.z() != 0.0) {
+      const double t = (z0 + ramp->height - origin.z()) / dir.z();
+      if (t > 0.0 && origin.x() + t * dir.x() >= ramp->x1) nearest = std::min(nearest, t);
+    }
   }
   return nearest;
 }
@@ -99,6 +127,22 @@ std::vector<Eigen::Vector3f> depthFrame(const BoxScene& scene, const Eigen::Isom
       if (!std::isfinite(depth) || depth < spec.min_range || depth > spec.max_range) continue;
       if (spec.noise) depth += (0.0012 + 0.0019 * (depth - 0.4) * (depth - 0.4)) * gauss(*rng);
       points[std::size_t(v) * spec.width + u] = (ray * depth).cast<float>();
+    }
+  }
+  if (spec.flying_pixel_probability > 0.0) {
+    std::uniform_real_distribution<double> uniform(0.0, 1.0);
+    const std::vector<Eigen::Vector3f> clean = points;
+    const auto depthAt = [&](int u, int v) { return clean[std::size_t(v) * spec.width + u].z(); };
+    for (int v = 0; v + 1 < spec.height; ++v) {
+      for (int u = 0; u + 1 < spec.width; ++u) {
+        const float here = depthAt(u, v);
+        for (const float there : {depthAt(u + 1, v), depthAt(u, v + 1)}) {
+          if (!(std::abs(there - here) > 0.1f) || uniform(*rng) >= spec.flying_pixel_probability) continue;
+          const double mixed = here + (0.2 + 0.6 * uniform(*rng)) * (there - here);
+          points[std::size_t(v) * spec.width + u] = clean[std::size_t(v) * spec.width + u] * float(mixed / here);
+          break;
+        }
+      }
     }
   }
   return points;

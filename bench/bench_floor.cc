@@ -1,0 +1,340 @@
+// The floor found, not assumed: the navigation slice (0.05-0.80 m above the floor) that depth
+// frames give, judged where the floor is not at the fixed frame's z = 0 or not level.
+//
+// Simulated: the office room (sim/depth_camera.h) seen by a camera on a loop, in variants (as is;
+// the world 1.5 m down; the world turned 1.5 degrees; a ramp; flying pixels, filtered and not),
+// each with Kinect depth noise, against the truth: the cells whose column holds a solid
+// 0.05-0.80 m above the floor under it, and the room's walls.
+// Real: the two TUM RGB-D sequences in ../shared/data (OSM_DATA_DIR), as recorded, moved 1.5 m
+// down and turned 1.5 degrees (as tum2bag's --lower and --tilt), against a reference built
+// without any floor finding: OctoMap's own discretized insertPointCloud of the untouched
+// sequence, its occupied voxels 0.15-0.80 m above the recorded floor (z = 0) projected.
+// Precision and recall with one cell of tolerance (map_evaluation.h); the variants' slices are
+// compared in x-y, where the turn moves obstacles by at most 2 cm.
+//
+//   bench_floor [--sim-frames N] [--every K] [--no-real] [--no-sim] [--assumed-floor]
+//               [--reference-range M] [--reference-min-z M] [--json] [--pictures DIR]
+// --assumed-floor: the rules of a map without floor finding (the floor at z = 0, no noise model,
+// no flying-pixel filter), for comparison in the same run. ms/frame: one thread, conversion,
+// flying-pixel test and insertion (its share: the last column); ref ms: OctoMap's insertion.
+#include <octomap/OcTree.h>
+
+#include <cctype>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <functional>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "bench_common.h"
+#include "core/internal/map_evaluation.h"
+#include "octo_slice_mapper/internal/flying_pixels.h"
+#include "octo_slice_mapper/map_io.h"
+#include "octo_slice_mapper/mapper.h"
+#include "octo_slice_mapper/sim/depth_camera.h"
+#include "tools/tum_sequence.h"
+
+namespace osm = octo_slice_mapper;
+
+namespace {
+
+struct Frame {
+  Eigen::Isometry3d optical_in_world;
+  std::vector<Eigen::Vector3f> organized;  // optical frame, NaN kept
+  int width = 0, height = 0;
+};
+
+struct Variant {
+  std::string name;
+  Eigen::Isometry3d world = Eigen::Isometry3d::Identity();  // the world as the map's fixed frame sees it
+};
+
+std::vector<Variant> variants() {
+  return {{"as recorded", Eigen::Isometry3d::Identity()},
+          {"floor 1.5 m down", Eigen::Isometry3d(Eigen::Translation3d(0.0, 0.0, -1.5))},
+          {"turned 1.5 deg", Eigen::Isometry3d(Eigen::AngleAxisd(1.5 * M_PI / 180.0, Eigen::Vector3d::UnitX()))}};
+}
+
+std::string pictures;  // --pictures DIR: each variant's slice as a PNG
+
+std::string fileName(std::string text) {
+  for (char& c : text) {
+    if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+  }
+  return text;
+}
+
+struct Outcome {
+  osm::OccupancyScore score;
+  double ms_per_frame = 0.0;
+  osm::FloorStatus floor;
+  std::uint64_t flying = 0;
+  double flying_ms = 0.0;  // of ms_per_frame: the flying-pixel filter
+};
+
+// Our navigation slice of `frames` seen through `world`, scored against `truth`.
+bool assumed_floor = false;  // --assumed-floor: the rules without floor finding (z = 0, fixed band, no noise model)
+
+Outcome mapAndScore(const std::vector<Frame>& frames, const Eigen::Isometry3d& world, const osm::GridImage& truth,
+                    bool filter_flying, const std::string& picture = "") {
+  osm::MapperOptions options;
+  options.keep_scans = false;
+  if (assumed_floor) {
+    options.floor.find = false;
+    options.insert.cloud_mark_sigmas = 0.0;
+    filter_flying = false;
+  }
+  options.slice.min_z = 0.05;
+  options.slice.max_z = 0.80;
+  osm::Mapper mapper(options);
+  osm::FlyingPixelOptions flying;
+  Outcome out;
+  std::vector<double> ms, flying_ms;
+  for (const Frame& f : frames) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const Eigen::Isometry3d pose = world * f.optical_in_world;
+    const Eigen::Isometry3f to_map = pose.cast<float>();
+    std::vector<std::uint8_t> drop;
+    if (filter_flying) out.flying += osm::flagFlyingPixels(f.organized, f.width, f.height, flying, &drop);
+    flying_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    osm::SensorCloud cloud;
+    cloud.origin = pose.translation();
+    cloud.points.reserve(f.organized.size());
+    for (std::size_t i = 0; i < f.organized.size(); ++i) {
+      if (f.organized[i].allFinite() && (drop.empty() || !drop[i])) cloud.points.push_back(to_map * f.organized[i]);
+    }
+    mapper.insert(cloud);
+    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+  }
+  out.ms_per_frame = osm::bench::median(ms);
+  out.flying_ms = osm::bench::median(flying_ms);
+  out.floor = mapper.floor().status();
+  const osm::GridImage slice = osm::gridImageOf(mapper.slice());
+  out.score = osm::scoreOccupancy(slice, truth, 1);
+  std::string error;
+  if (!pictures.empty() && !picture.empty()) {
+    if (!osm::savePng(slice, pictures + "/" + fileName(picture) + ".png", &error)) std::fprintf(stderr, "bench_floor: %s\n", error.c_str());
+    // The truth's obstacles the slice misses (black), finds (grey); the rest white.
+    osm::GridImage misses = truth;
+    for (int j = 0; j < truth.height; ++j) {
+      for (int i = 0; i < truth.width; ++i) {
+        std::int8_t& cell = misses.cells[std::size_t(j) * truth.width + i];
+        if (truth.at(i, j) <= 50) {
+          cell = 0;
+          continue;
+        }
+        const double x = truth.origin_x + (i + 0.5) * 0.05, y = truth.origin_y + (j + 0.5) * 0.05;
+        bool found = false;
+        for (int dj = -1; dj <= 1; ++dj) {
+          for (int di = -1; di <= 1; ++di) found = found || mapper.slice().valueAt(x + di * 0.05, y + dj * 0.05) > 50;
+        }
+        cell = found ? 60 : 100;
+      }
+    }
+    osm::savePng(misses, pictures + "/" + fileName(picture) + "_misses.png", &error);
+  }
+  return out;
+}
+
+// OctoMap's discretized insertion of the untouched frames (returns beyond max_range cut, as
+// OctoMap cuts them: cleared up to it), its occupied voxels with z in [lo, hi] projected (100),
+// the other known columns of the band free (0).
+osm::GridImage octomapReference(const std::vector<Frame>& frames, double lo, double hi, double max_range,
+                                double* ms_per_frame) {
+  octomap::OcTree tree(0.05);
+  std::vector<double> ms;
+  for (const Frame& f : frames) {
+    const auto t0 = std::chrono::steady_clock::now();
+    octomap::Pointcloud cloud;
+    for (const Eigen::Vector3f& p : f.organized) {
+      if (!p.allFinite()) continue;
+      const Eigen::Vector3d w = f.optical_in_world * p.cast<double>();
+      cloud.push_back(float(w.x()), float(w.y()), float(w.z()));
+    }
+    const Eigen::Vector3d o = f.optical_in_world.translation();
+    tree.insertPointCloud(cloud, octomap::point3d(float(o.x()), float(o.y()), float(o.z())), max_range, false, true);
+    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+  }
+  *ms_per_frame = osm::bench::median(ms);
+  double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
+  for (auto it = tree.begin_leafs(); it != tree.end_leafs(); ++it) {
+    x0 = std::min(x0, it.getX()), y0 = std::min(y0, it.getY()), x1 = std::max(x1, it.getX()), y1 = std::max(y1, it.getY());
+  }
+  osm::GridImage grid;
+  grid.resolution = 0.05;
+  grid.origin_x = std::floor(x0 / 0.05) * 0.05 - 0.5, grid.origin_y = std::floor(y0 / 0.05) * 0.05 - 0.5;
+  grid.width = int((x1 - grid.origin_x) / 0.05) + 10, grid.height = int((y1 - grid.origin_y) / 0.05) + 10;
+  grid.cells.assign(std::size_t(grid.width) * grid.height, osm::kUnknownCell);
+  for (auto it = tree.begin_leafs(); it != tree.end_leafs(); ++it) {
+    const double size = it.getSize();
+    if (it.getZ() + size / 2 < lo || it.getZ() - size / 2 > hi) continue;
+    const bool occupied = tree.isNodeOccupied(*it);
+    const int n = std::max(1, int(std::lround(size / 0.05)));
+    for (int a = 0; a < n; ++a) {
+      for (int b = 0; b < n; ++b) {
+        const double x = it.getX() - size / 2 + (a + 0.5) * 0.05, y = it.getY() - size / 2 + (b + 0.5) * 0.05;
+        const int i = int(std::floor((x - grid.origin_x) / 0.05)), j = int(std::floor((y - grid.origin_y) / 0.05));
+        if (i < 0 || j < 0 || i >= grid.width || j >= grid.height) continue;
+        std::int8_t& cell = grid.cells[std::size_t(j) * grid.width + i];
+        if (occupied) cell = 100;
+        else if (cell != 100) cell = 0;
+      }
+    }
+  }
+  return grid;
+}
+
+// The simulator's truth: columns holding a solid 0.05-0.80 m above the floor under them, and the
+// room's walls (the cells either side of its boundary).
+osm::GridImage simTruth(const osm::sim::BoxScene& scene) {
+  osm::GridImage grid;
+  grid.resolution = 0.05;
+  grid.origin_x = scene.room.min.x() - 0.5, grid.origin_y = scene.room.min.y() - 0.5;
+  grid.width = int((scene.room.max.x() - scene.room.min.x() + 1.0) / 0.05);
+  grid.height = int((scene.room.max.y() - scene.room.min.y() + 1.0) / 0.05);
+  grid.cells.assign(std::size_t(grid.width) * grid.height, 0);
+  for (int j = 0; j < grid.height; ++j) {
+    for (int i = 0; i < grid.width; ++i) {
+      const double x0 = grid.origin_x + i * 0.05, y0 = grid.origin_y + j * 0.05, x1 = x0 + 0.05, y1 = y0 + 0.05;
+      const double floor = scene.floorAt(0.5 * (x0 + x1));
+      bool occupied = false;
+      for (const osm::sim::Box& b : scene.solids) {
+        if (b.max.x() > x0 && b.min.x() < x1 && b.max.y() > y0 && b.min.y() < y1 && b.max.z() > floor + 0.05 &&
+            b.min.z() < floor + 0.80) {
+          occupied = true;
+        }
+      }
+      const osm::sim::Box& r = scene.room;
+      const bool inside_x = x1 > r.min.x() && x0 < r.max.x(), inside_y = y1 > r.min.y() && y0 < r.max.y();
+      const auto near = [](double edge, double a, double b) { return a <= edge + 0.05 && b >= edge - 0.05; };
+      if ((inside_y && (near(r.min.x(), x0, x1) || near(r.max.x(), x0, x1))) ||
+          (inside_x && (near(r.min.y(), y0, y1) || near(r.max.y(), y0, y1)))) {
+        occupied = true;
+      }
+      grid.cells[std::size_t(j) * grid.width + i] = occupied ? 100 : 0;
+    }
+  }
+  return grid;
+}
+
+// A camera 1.0 m over the floor under it, pitched 0.45 rad down, on a loop between the table
+// and the shelf, looking out: it sees the floor, the table's top and the step.
+std::vector<Frame> simFrames(const osm::sim::BoxScene& scene, int count, double flying, unsigned seed) {
+  osm::sim::DepthCameraSpec spec;
+  spec.flying_pixel_probability = flying;
+  std::mt19937 rng(seed);
+  std::vector<Frame> frames;
+  for (int k = 0; k < count; ++k) {
+    const double a = 2.0 * M_PI * k / count;
+    const double x = 3.0 + 1.9 * std::cos(a), y = 3.2 + 0.5 * std::sin(a);
+    Frame f;
+    f.optical_in_world = osm::sim::opticalPose(Eigen::Vector3d(x, y, scene.floorAt(x) + 1.0), a + 0.9, 0.45);
+    f.organized = osm::sim::depthFrame(scene, f.optical_in_world, spec, &rng);
+    f.width = spec.width, f.height = spec.height;
+    frames.push_back(std::move(f));
+  }
+  return frames;
+}
+
+bool realFrames(const std::string& folder, const osm::tools::DepthIntrinsics& intrinsics, int every,
+                std::vector<Frame>* frames) {
+  std::vector<osm::tools::DepthFrame> sequence;
+  std::string error;
+  if (!osm::tools::readTumSequence(folder, &sequence, &error)) {
+    std::fprintf(stderr, "bench_floor: %s: %s (skipped)\n", folder.c_str(), error.c_str());
+    return false;
+  }
+  for (std::size_t i = 0; i < sequence.size(); i += std::size_t(every)) {
+    Frame f;
+    std::vector<std::uint16_t> pixels;
+    if (!osm::tools::readDepthPng(sequence[i].image, &f.width, &f.height, &pixels, &error)) {
+      std::fprintf(stderr, "bench_floor: %s (skipped)\n", error.c_str());
+      return false;
+    }
+    f.organized = osm::tools::depthPoints(f.width, f.height, pixels, intrinsics);
+    f.optical_in_world = sequence[i].pose;
+    frames->push_back(std::move(f));
+  }
+  return true;
+}
+
+std::string json;
+
+void report(const std::string& data, const std::string& variant, const Outcome& o, double reference_ms) {
+  std::printf("  %-22s %-18s %9.3f %7.3f %8zu %8zu %9.2f %9.2f %5llu/%-5llu %8.3f %9llu %6.2f\n", data.c_str(),
+              variant.c_str(), o.score.precision, o.score.recall, o.score.map_occupied, o.score.truth_observed,
+              o.ms_per_frame, reference_ms, (unsigned long long)o.floor.frames_found,
+              (unsigned long long)(o.floor.frames_found + o.floor.frames_without), o.floor.height,
+              (unsigned long long)o.flying, o.flying_ms);
+  char line[512];
+  std::snprintf(line, sizeof line,
+                "%s{\"data\": \"%s\", \"variant\": \"%s\", \"precision\": %.4f, \"recall\": %.4f, \"ms_per_frame\": %.3f, "
+                "\"reference_ms_per_frame\": %.3f, \"floor_frames\": %llu, \"flying_pixels\": %llu}",
+                json.empty() ? "" : ", ", data.c_str(), variant.c_str(), o.score.precision, o.score.recall,
+                o.ms_per_frame, reference_ms, (unsigned long long)o.floor.frames_found, (unsigned long long)o.flying);
+  json += line;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int sim_frames = 24, every = 1;
+  double reference_range = -1.0;  // OctoMap's default: no cut
+  double reference_min_z = 0.15;
+  bool real = true, simulated = true, as_json = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "--sim-frames" && i + 1 < argc) sim_frames = std::max(4, std::atoi(argv[++i]));
+    else if (arg == "--every" && i + 1 < argc) every = std::max(1, std::atoi(argv[++i]));
+    else if (arg == "--no-real") real = false;
+    else if (arg == "--assumed-floor") assumed_floor = true;
+    else if (arg == "--reference-range" && i + 1 < argc) reference_range = std::atof(argv[++i]);
+    else if (arg == "--reference-min-z" && i + 1 < argc) reference_min_z = std::atof(argv[++i]);
+    else if (arg == "--no-sim") simulated = false;
+    else if (arg == "--json") as_json = true;
+    else if (arg == "--pictures" && i + 1 < argc) pictures = argv[++i];
+    else {
+      std::fprintf(stderr,
+                   "usage: bench_floor [--sim-frames N] [--every K] [--no-real] [--no-sim] [--assumed-floor]\n"
+                   "                   [--reference-range M] [--reference-min-z M] [--json] [--pictures DIR]\n");
+      return 2;
+    }
+  }
+  std::printf("== the navigation slice (0.05-0.80 m above the floor found), 0.05 m, one cell of tolerance\n");
+  std::printf("  %-22s %-18s %9s %7s %8s %8s %9s %9s %11s %8s %9s %6s\n", "data", "variant", "precision", "recall",
+              "occupied", "truth", "ms/frame", "ref ms", "floor found", "floor z", "flying", "ms");
+  if (simulated) {
+    const osm::sim::BoxScene office = osm::sim::BoxScene::officeRoom(), ramp = osm::sim::BoxScene::officeRoomWithRamp();
+    const std::vector<Frame> frames = simFrames(office, sim_frames, 0.0, 7);
+    const osm::GridImage truth = simTruth(office);
+    for (const Variant& v : variants()) report("sim office", v.name, mapAndScore(frames, v.world, truth, true, "sim " + v.name), 0.0);
+    report("sim office", "ramp", mapAndScore(simFrames(ramp, sim_frames, 0.0, 7), Eigen::Isometry3d::Identity(),
+                                            simTruth(ramp), true, "sim ramp"), 0.0);
+    const std::vector<Frame> flying = simFrames(office, sim_frames, 0.5, 7);
+    report("sim office", "flying pixels", mapAndScore(flying, Eigen::Isometry3d::Identity(), truth, true, "sim flying"), 0.0);
+    report("sim office", "flying, unfiltered", mapAndScore(flying, Eigen::Isometry3d::Identity(), truth, false, "sim flying unfiltered"), 0.0);
+  }
+  if (real) {
+    const char* env = std::getenv("OSM_DATA_DIR");
+    const std::string data = env && *env ? env : "../shared/data";
+    const struct {
+      const char* name;
+      osm::tools::DepthIntrinsics intrinsics;
+    } sequences[] = {{"tum_fr3_cabinet", osm::tools::DepthIntrinsics::freiburg3()},
+                     {"tum_fr1_rpy", osm::tools::DepthIntrinsics::freiburg1()}};
+    for (const auto& s : sequences) {
+      std::vector<Frame> frames;
+      if (!realFrames(data + "/" + s.name, s.intrinsics, every, &frames)) continue;
+      double reference_ms = 0.0;
+      const osm::GridImage reference = octomapReference(frames, reference_min_z, 0.80, reference_range, &reference_ms);
+      for (const Variant& v : variants()) report(s.name, v.name, mapAndScore(frames, v.world, reference, true, std::string(s.name) + " " + v.name), reference_ms);
+      std::string error;
+      if (!pictures.empty()) osm::savePng(reference, pictures + "/" + s.name + "_reference.png", &error);
+    }
+  }
+  if (as_json) std::printf("{\"bench\": \"floor\", \"results\": [%s]}\n", json.c_str());
+  return 0;
+}

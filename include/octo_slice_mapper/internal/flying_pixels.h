@@ -1,0 +1,29 @@
+// Flying pixels: a depth camera's mixed pixels at depth edges, which read a depth between the
+// edge and what lies behind it and so float in free air. Found in the organized frame: a pixel
+// close in range to fewer than two of its eight neighbours stands alone (a surface's pixel,
+// even at a grazing angle, has at least its neighbours along the surface).
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <vector>
+
+namespace octo_slice_mapper {
+
+struct FlyingPixelOptions {
+  bool enabled = true;
+  // A neighbour is close when its range differs by at most gap_base + gap_per_metre * range (m):
+  // at 4 m, 0.15 m, wider than a Kinect's noise (3 sigma: 8 cm) and a floor's step from one
+  // pixel row to the next at a grazing angle.
+  double gap_base = 0.03;
+  double gap_per_metre = 0.03;
+  int min_neighbours = 2;
+};
+
+// Flags (1 in `flags`, resized to width x height) the flying pixels of an organized frame (row by
+// row, in the sensor's frame, NaN where no depth) and returns how many. Nothing is flagged when
+// the frame is not organized (width x height != size) or the filter is off.
+std::size_t flagFlyingPixels(const std::vector<Eigen::Vector3f>& organized, int width, int height,
+                             const FlyingPixelOptions& options, std::vector<std::uint8_t>* flags);
+
+}  // namespace octo_slice_mapper

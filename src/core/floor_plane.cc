@@ -1,0 +1,120 @@
+#include "octo_slice_mapper/internal/floor_plane.h"
+
+#include <pcl/console/print.h>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+#include <pcl/sample_consensus/ransac.h>
+#include <pcl/sample_consensus/sac_model_perpendicular_plane.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace octo_slice_mapper {
+
+double FloorPlane::tilt() const { return std::acos(std::clamp(normal.z(), -1.0, 1.0)); }
+
+namespace {
+
+using Cloud = pcl::PointCloud<pcl::PointXYZ>;
+
+// RANSAC over `indices` of `cloud` for a plane within max_tilt of level, refined by least squares
+// over its inliers. PCL's models and RANSAC are seeded with a constant unless asked for a random
+// seed: the same input gives the same plane.
+std::optional<FloorPlane> fitPlane(const Cloud::ConstPtr& cloud, const std::vector<int>& indices,
+                                   const FloorFitOptions& options) {
+  if (static_cast<int>(indices.size()) < options.min_points) return std::nullopt;
+  // A frame without a floor is no error: PCL's "RANSAC found no model" stays unprinted.
+  static const bool quiet = [] {
+    if (pcl::console::getVerbosityLevel() > pcl::console::L_ALWAYS) pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
+    return true;
+  }();
+  (void)quiet;
+  using Model = pcl::SampleConsensusModelPerpendicularPlane<pcl::PointXYZ>;
+  Model::Ptr model(new Model(cloud, indices, /*random=*/false));
+  model->setAxis(Eigen::Vector3f::UnitZ());
+  model->setEpsAngle(options.max_tilt);
+  pcl::RandomSampleConsensus<pcl::PointXYZ> ransac(model, options.inlier_distance);
+  ransac.setMaxIterations(100);
+  if (!ransac.computeModel()) return std::nullopt;
+  std::vector<int> inliers;
+  ransac.getInliers(inliers);
+  if (static_cast<int>(inliers.size()) < options.min_points) return std::nullopt;
+  Eigen::VectorXf coefficients, refined;
+  ransac.getModelCoefficients(coefficients);
+  model->optimizeModelCoefficients(inliers, coefficients, refined);
+  Eigen::Vector3d normal = refined.head<3>().cast<double>();
+  double d = refined[3];
+  const double length = normal.norm();
+  if (!(length > 0.0) || !std::isfinite(d)) return std::nullopt;
+  normal /= length, d /= length;
+  if (normal.z() < 0.0) normal = -normal, d = -d;
+  FloorPlane plane{normal, d};
+  if (plane.tilt() > options.max_tilt) return std::nullopt;  // the refinement may leave the cone
+  return plane;
+}
+
+}  // namespace
+
+std::optional<FloorFit> fitFloor(const std::vector<Eigen::Vector3d>& samples, const Eigen::Vector3d& sensor,
+                                 const std::optional<FloorPlane>& seed, const FloorFitOptions& options) {
+  // The candidates: below the sensor, thinned evenly to max_samples.
+  std::vector<std::size_t> below;
+  const double top = sensor.z() - options.min_below_sensor;
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    if (samples[i].z() <= top && samples[i].allFinite()) below.push_back(i);
+  }
+  const std::size_t stride = std::max<std::size_t>(1, (below.size() + options.max_samples - 1) /
+                                                          std::max(1, options.max_samples));
+  Cloud::Ptr cloud(new Cloud);
+  std::vector<std::size_t> origin_of;  // the cloud's point k is samples[origin_of[k]]
+  for (std::size_t k = 0; k < below.size(); k += stride) {
+    const Eigen::Vector3d& p = samples[below[k]];
+    cloud->push_back(pcl::PointXYZ(float(p.x()), float(p.y()), float(p.z())));
+    origin_of.push_back(below[k]);
+  }
+  if (static_cast<int>(cloud->size()) < options.min_points) return std::nullopt;
+  const auto pointOf = [&](int k) { return samples[origin_of[std::size_t(k)]]; };
+  const auto where = [&](auto keep) {
+    std::vector<int> indices;
+    for (int k = 0; k < static_cast<int>(cloud->size()); ++k) {
+      if (keep(pointOf(k))) indices.push_back(k);
+    }
+    return indices;
+  };
+
+  std::optional<FloorPlane> plane;
+  if (seed) {
+    plane = fitPlane(cloud, where([&](const Eigen::Vector3d& p) { return std::abs(seed->distance(p)) <= options.seed_window; }),
+                     options);
+  }
+  if (!plane) {
+    std::vector<int> all(cloud->size());
+    for (std::size_t k = 0; k < all.size(); ++k) all[k] = static_cast<int>(k);
+    plane = fitPlane(cloud, all, options);
+  }
+  if (!plane) return std::nullopt;
+  // The lowest supported plane: a table top or a bed found first gives way to the floor below it.
+  for (int attempt = 0; attempt < 3; ++attempt) {
+    const FloorPlane current = *plane;
+    std::optional<FloorPlane> lower = fitPlane(
+        cloud, where([&](const Eigen::Vector3d& p) { return current.distance(p) < -3.0 * options.inlier_distance; }),
+        options);
+    if (!lower) break;
+    plane = lower;
+  }
+  FloorFit fit;
+  fit.plane = *plane;
+  fit.min = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+  fit.max = -fit.min;
+  for (std::size_t i : below) {
+    if (std::abs(fit.plane.distance(samples[i])) > options.inlier_distance) continue;
+    fit.inliers.push_back(i);
+    fit.min = fit.min.cwiseMin(samples[i].head<2>());
+    fit.max = fit.max.cwiseMax(samples[i].head<2>());
+  }
+  if (fit.inliers.empty()) return std::nullopt;
+  return fit;
+}
+
+}  // namespace octo_slice_mapper
