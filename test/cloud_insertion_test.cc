@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <random>
 #include <tuple>
 #include <unordered_map>
 
@@ -12,6 +13,8 @@
 #include "octo_slice_mapper/internal/scan_inserter.h"
 #include "core/internal/scan_inserter_inspection.h"
 #include "octo_slice_mapper/sim/depth_camera.h"
+#include "core/internal/map_evaluation.h"
+#include "octo_slice_mapper/map_io.h"
 #include "test_helpers.h"
 
 using namespace octo_slice_mapper;
@@ -324,6 +327,85 @@ TEST(CloudInsertion, TheFloorClearsButDoesNotMarkAndTheTableTopMarks) {
   EXPECT_GT(floor_seen, 0) << "the floor beside the table was not seen at all";
   EXPECT_EQ(floor_marked, 0);
   EXPECT_TRUE(known_free(2.6, 1.9, 1.0)) << "the air between the camera and the table";
+}
+
+TEST(CloudInsertion, TheNavigationSliceIsTheSameWhereverTheFixedFrameHasTheFloor) {
+  // The room seen from a loop of poses, mapped as recorded, with the world 1.5 m down (a
+  // hand-held camera's frame) and with it turned 1.5 degrees (a mount or odometry that is off):
+  // the navigation band is measured from the floor found, so the three slices agree.
+  std::vector<Frame> frames;
+  for (int k = 0; k < 8; ++k) {
+    const double a = 2.0 * M_PI * k / 8;
+    frames.push_back(frameOf(Eigen::Vector3d(3.0 + 1.9 * std::cos(a), 3.2 + 0.5 * std::sin(a), 1.0), a + 0.9, 0.45,
+                             smallCamera(), k + 1));
+  }
+  const auto sliceOf = [&](const Eigen::Isometry3d& world) {
+    MapperOptions options;
+    options.slice.min_z = 0.05;
+    options.slice.max_z = 0.80;
+    Mapper mapper(options);
+    for (const Frame& f : frames) {
+      std::vector<Eigen::Vector3f> points;
+      for (const Eigen::Vector3f& p : f.points) points.push_back(p.allFinite() ? Eigen::Vector3f((world * p.cast<double>()).cast<float>()) : p);
+      EXPECT_TRUE(mapper.insertPoints(world * f.pose.translation(), points).ok());
+    }
+    EXPECT_EQ(mapper.floor().status().frames_found, frames.size());
+    return gridImageOf(mapper.slice());
+  };
+  const GridImage recorded = sliceOf(Eigen::Isometry3d::Identity());
+  const OccupancyScore self = scoreOccupancy(recorded, recorded, 1);
+  ASSERT_GT(self.map_occupied, 300u);
+  for (const Eigen::Isometry3d& world :
+       {Eigen::Isometry3d(Eigen::Translation3d(0.0, 0.0, -1.5)),
+        Eigen::Isometry3d(Eigen::AngleAxisd(1.5 * M_PI / 180.0, Eigen::Vector3d::UnitX()))}) {
+    const GridImage moved = sliceOf(world);
+    const OccupancyScore score = scoreOccupancy(moved, recorded, 1);
+    EXPECT_GT(score.precision, 0.97);
+    EXPECT_GT(score.recall, 0.97);
+  }
+  // Without floor finding, the frame's z = 0 is the floor: 1.5 m down, nothing is in the band.
+  MapperOptions assumed;
+  assumed.floor.find = false;
+  assumed.slice.min_z = 0.05;
+  assumed.slice.max_z = 0.80;
+  Mapper mapper(assumed);
+  const Eigen::Isometry3d down(Eigen::Translation3d(0.0, 0.0, -1.5));
+  for (const Frame& f : frames) {
+    std::vector<Eigen::Vector3f> points;
+    for (const Eigen::Vector3f& p : f.points) points.push_back(p.allFinite() ? Eigen::Vector3f((down * p.cast<double>()).cast<float>()) : p);
+    mapper.insertPoints(down * f.pose.translation(), points);
+  }
+  EXPECT_EQ(scoreOccupancy(gridImageOf(mapper.slice()), recorded, 1).map_occupied, 0u);
+}
+
+TEST(CloudInsertion, FarFloorNoiseDoesNotMarkButALowStepNearbyDoes) {
+  // A floor seen out to 4.5 m whose returns scatter in height by a Kinect's noise at their
+  // range (the model's sigma, 2-3 cm beyond 3.5 m) and, 1.5 m away, the top of a 6 cm step: the
+  // far floor clears only, the step marks.
+  std::mt19937 rng(3);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  const Eigen::Vector3d origin(0.0, 0.0, 1.0);
+  std::vector<Eigen::Vector3f> points;
+  for (double x = 0.6; x < 4.5; x += 0.02) {
+    for (double y = -1.0; y < 1.0; y += 0.05) {
+      const bool step = x >= 1.5 && x < 1.7 && std::abs(y) < 0.3;
+      const double r = (Eigen::Vector3d(x, y, 0.0) - origin).norm();
+      const double sigma = 0.0012 + 0.0019 * (r - 0.4) * (r - 0.4);
+      points.emplace_back(float(x), float(y), float((step ? 0.06 : 0.0) + sigma * gauss(rng)));
+    }
+  }
+  Mapper mapper{MapperOptions()};
+  ASSERT_TRUE(mapper.insertPoints(origin, points).ok());
+  EXPECT_EQ(mapper.floor().status().source, FloorSource::kFound);
+  const octomap::OcTree& tree = mapper.tree();
+  int far_marked = 0, step_marked = 0;
+  for (auto it = tree.begin_leafs(); it != tree.end_leafs(); ++it) {
+    if (!tree.isNodeOccupied(*it)) continue;
+    if (it.getX() > 3.5) ++far_marked;
+    if (it.getX() > 1.45 && it.getX() < 1.75) ++step_marked;
+  }
+  EXPECT_EQ(far_marked, 0);
+  EXPECT_GT(step_marked, 10);
 }
 
 TEST(CloudInsertion, CloudMaxRangeClearsUpToItAndMarksNothingBeyond) {

@@ -262,3 +262,33 @@ TEST(SliceGrid, ColumnsFollowTheirChangesAsIfTheyWereRead) {
     }
   }
 }
+
+TEST(SliceGrid, AShiftedColumnReadsItsOwnBandAndFollowsItsVoxels) {
+  octomap::OcTree tree(0.05);
+  SliceGrid slice(tree, SliceOptions{0.05, 0.20});
+  octomap::OcTreeKey a, b;
+  ASSERT_TRUE(coordToKeySafe(tree, 1.025, 1.025, 0.325, &a));
+  ASSERT_TRUE(coordToKeySafe(tree, 1.525, 1.025, 0.125, &b));
+  tree.updateNode(a, 2.0f);  // above the band where the floor is at z = 0
+  tree.updateNode(b, 2.0f);  // in it
+  slice.rebuild();
+  EXPECT_EQ(slice.valueAt(1.025, 1.025), kUnknownCell);
+  EXPECT_GT(slice.valueAt(1.525, 1.025), 50);
+  // The floor under the first column is three layers up: its band is 0.20-0.35 there.
+  const std::uint32_t column = std::uint32_t(a[0]) | std::uint32_t(a[1]) << 16;
+  slice.shiftColumns({{column, 3}});
+  EXPECT_EQ(slice.columnShift(a[0], a[1]), 3);
+  EXPECT_GT(slice.valueAt(1.025, 1.025), 50);
+  EXPECT_GT(slice.valueAt(1.525, 1.025), 50);  // the other column as it was
+  // A change in the shifted band, outside the grid's own, reaches the column.
+  tree.updateNode(a, -4.0f);
+  const float after = tree.search(a)->getLogOdds();
+  slice.updateColumns({a}, KeyBox::of({a}));
+  EXPECT_LT(slice.valueAt(1.025, 1.025), 50);
+  EXPECT_LT(after, 0.0f);
+  // A rebuild keeps the shift; a shift of 0 takes it away.
+  slice.rebuild();
+  EXPECT_LT(slice.valueAt(1.025, 1.025), 50);
+  slice.shiftColumns({{column, 0}});
+  EXPECT_EQ(slice.valueAt(1.025, 1.025), kUnknownCell);
+}

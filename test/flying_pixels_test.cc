@@ -1,0 +1,72 @@
+// Flying pixels: a depth edge's mixed pixels are flagged; surfaces, grazing floors, thin
+// structures and pixels without depth are not.
+#include <gtest/gtest.h>
+
+#include <limits>
+
+#include "octo_slice_mapper/internal/flying_pixels.h"
+
+using namespace octo_slice_mapper;
+
+namespace {
+
+constexpr int kW = 64, kH = 48;
+const float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+// An organized frame of depths (optical frame: the point is the pixel's ray times its depth).
+std::vector<Eigen::Vector3f> frameOf(const std::vector<float>& depth) {
+  std::vector<Eigen::Vector3f> points(depth.size());
+  for (int v = 0; v < kH; ++v) {
+    for (int u = 0; u < kW; ++u) {
+      const Eigen::Vector3f ray((u - kW / 2) / 500.0f, (v - kH / 2) / 500.0f, 1.0f);
+      points[std::size_t(v) * kW + u] = ray * depth[std::size_t(v) * kW + u];
+    }
+  }
+  return points;
+}
+
+}  // namespace
+
+TEST(FlyingPixels, AnEdgesMixedPixelsAreFlaggedAndTheSurfacesAreNot) {
+  // A box at 1.5 m before a wall at 4 m (columns 20-39), its left edge's column mixed.
+  std::vector<float> depth(kW * kH, 4.0f);
+  for (int v = 0; v < kH; ++v) {
+    for (int u = 20; u < 40; ++u) depth[std::size_t(v) * kW + u] = 1.5f;
+    depth[std::size_t(v) * kW + 19] = (v % 2) ? 2.3f : 3.1f;  // between the two, no two alike
+  }
+  std::vector<std::uint8_t> flags;
+  const std::size_t count = flagFlyingPixels(frameOf(depth), kW, kH, {}, &flags);
+  ASSERT_EQ(flags.size(), std::size_t(kW * kH));
+  for (int v = 1; v + 1 < kH; ++v) {
+    EXPECT_EQ(flags[std::size_t(v) * kW + 19], 1) << v;
+    for (int u = 1; u + 1 < kW; ++u) {
+      if (u != 19) EXPECT_EQ(flags[std::size_t(v) * kW + u], 0) << u << " " << v;
+    }
+  }
+  EXPECT_EQ(count, std::size_t(kH - 2));
+}
+
+TEST(FlyingPixels, AGrazingFloorAOnePixelPoleAndPixelsWithoutDepthAreKept) {
+  std::vector<float> depth(kW * kH, kNaN);
+  // A floor seen at a grazing angle: depth grows fast from row to row (4 m ... 1.6 m, 5 cm a row).
+  for (int v = 0; v < kH; ++v) {
+    for (int u = 0; u < kW; ++u) depth[std::size_t(v) * kW + u] = 4.0f - 0.05f * v;
+  }
+  // A pole one pixel wide at 1 m, and a hole without depth.
+  for (int v = 0; v < kH; ++v) depth[std::size_t(v) * kW + 30] = 1.0f;
+  for (int u = 40; u < 45; ++u) depth[std::size_t(10) * kW + u] = kNaN;
+  std::vector<std::uint8_t> flags;
+  EXPECT_EQ(flagFlyingPixels(frameOf(depth), kW, kH, {}, &flags), 0u);
+}
+
+TEST(FlyingPixels, OffOrNotOrganizedFlagsNothing) {
+  std::vector<float> depth(kW * kH, 4.0f);
+  depth[20 * kW + 20] = 2.0f;  // one lone pixel
+  std::vector<std::uint8_t> flags;
+  EXPECT_EQ(flagFlyingPixels(frameOf(depth), kW, kH, {}, &flags), 1u);
+  FlyingPixelOptions off;
+  off.enabled = false;
+  EXPECT_EQ(flagFlyingPixels(frameOf(depth), kW, kH, off, &flags), 0u);
+  EXPECT_TRUE(flags.empty());
+  EXPECT_EQ(flagFlyingPixels(frameOf(depth), kW * kH, 1, {}, &flags), 0u);  // an unorganized cloud
+}
