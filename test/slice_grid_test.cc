@@ -292,3 +292,13 @@ TEST(SliceGrid, AShiftedColumnReadsItsOwnBandAndFollowsItsVoxels) {
   slice.shiftColumns({{column, 0}});
   EXPECT_EQ(slice.valueAt(1.025, 1.025), kUnknownCell);
 }
+
+TEST(SliceGrid, ABandAcrossZeroReadsEachLayer) {
+  // Keys of z < 0 and z >= 0 differ in their top bit: the band's columns share only the root.
+  octomap::OcTree tree(0.05);
+  SliceGrid slice(tree, SliceOptions{-0.20, 0.20});
+  tree.updateNode(1.025, 1.025, -0.125, -2.0f);  // free below zero
+  tree.updateNode(1.025, 1.025, 0.125, 2.0f);    // an obstacle above it
+  slice.rebuild();
+  EXPECT_GT(slice.valueAt(1.025, 1.025), 50);
+}

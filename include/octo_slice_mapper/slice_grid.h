@@ -96,8 +96,11 @@ class SliceGrid {
     return int(hi) >= int(band_lo_) + shift_min_ && int(lo) <= int(band_hi_) + shift_max_;
   }
   void findBandLayers();
-  const octomap::OcTreeNode* bandVoxel(const octomap::OcTreeNode* top, std::uint16_t kx, std::uint16_t ky,
-                                       unsigned kz) const;
+  // The node at `depth` holding (kx, ky, kz), or a leaf above it, or null.
+  const octomap::OcTreeNode* descendTo(std::uint16_t kx, std::uint16_t ky, std::uint16_t kz, unsigned depth) const;
+  // The voxel (kx, ky, kz) below `top`, the node at `top_depth` holding it.
+  const octomap::OcTreeNode* bandVoxel(const octomap::OcTreeNode* top, std::uint16_t kx, std::uint16_t ky, unsigned kz,
+                                       unsigned top_depth) const;
 
   // Recomputes the columns of `box` (x/y) from the layers noted so far.
   void recompute(const KeyBox& box);
@@ -127,6 +130,10 @@ class SliceGrid {
   std::uint64_t geometry_ = 0;
   std::unordered_map<std::uint32_t, int> shift_;  // the shifted columns
   int shift_min_ = 0, shift_max_ = 0;              // bounds of their shifts (and 0)
+  // shift_ over the grid's cells (as data_), for a lookup per changed voxel; empty while no
+  // column is shifted. Shifts beyond a signed byte are clamped (6 m at 0.05 m).
+  std::vector<std::int8_t> shift_grid_;
+  void fillShiftGrid();
 };
 
 }  // namespace octo_slice_mapper

@@ -117,6 +117,18 @@ void FloorLayer::setCell(int kx, int ky, double measured, bool seen) {
   }
 }
 
+void FloorLayer::relevel() {
+  constexpr int kMask = FloorView::kTileSize - 1;
+  for (const auto& [id, tile] : tiles_) {
+    const int tx = int(id & 0xffff), ty = int(id >> 16);
+    for (int i = 0; i < FloorView::kTileSize * FloorView::kTileSize; ++i) {
+      if (std::isnan(tile->height[i])) continue;
+      const int kx = (tx << FloorView::kTileBits) | (i & kMask), ky = (ty << FloorView::kTileBits) | (i >> FloorView::kTileBits);
+      pending_.cells.emplace_back(std::uint32_t(kx) | std::uint32_t(ky) << 16, levelOf(tile->height[i]));
+    }
+  }
+}
+
 double FloorLayer::knownHeightAt(double x, double y, double otherwise) const {
   const int kx = floorKeyOf(x, resolution_), ky = floorKeyOf(y, resolution_);
   if (kx < 0 || ky < 0) return otherwise;
@@ -161,6 +173,17 @@ FloorView FloorLayer::observe(const Eigen::Vector3d& sensor, const std::vector<E
         }
       }
     }
+    // The level where no cell is known, first: the cells' levels are taken against it.
+    const int level = static_cast<int>(std::lround(height / resolution_));
+    if (!fallback_found_ || std::abs(level - fallback_level_) >= 2) {
+      if (level != fallback_level_) {
+        fallback_level_ = level;
+        pending_.fallback_changed = true;
+        relevel();
+      }
+    }
+    fallback_found_ = true;
+    fallback_height_ = height;
     // One measurement per cell per frame: the plane's height at the cells its inliers lie in.
     std::vector<std::uint32_t> cells;
     cells.reserve(fit->inliers.size());
@@ -183,13 +206,6 @@ FloorView FloorLayer::observe(const Eigen::Vector3d& sensor, const std::vector<E
       setCell(kx, ky, plane.heightAt((kx - 32768 + 0.5) * resolution_, (ky - 32768 + 0.5) * resolution_), false);
     }
     last_plane_ = plane;
-    const int level = levelOf(height);
-    if (!fallback_found_ || std::abs(level - fallback_level_) >= 2) {
-      pending_.fallback_changed = pending_.fallback_changed || level != fallback_level_;
-      fallback_level_ = level;
-    }
-    fallback_found_ = true;
-    fallback_height_ = height;
     status_.source = FloorSource::kFound;
     status_.height = height;
     status_.tilt = plane.plane.tilt();

@@ -1,5 +1,6 @@
 #include "octo_slice_mapper/internal/flying_pixels.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace octo_slice_mapper {
@@ -8,35 +9,48 @@ std::size_t flagFlyingPixels(const std::vector<Eigen::Vector3f>& organized, int 
                              const FlyingPixelOptions& options, std::vector<std::uint8_t>* flags) {
   flags->clear();
   if (!options.enabled || width < 3 || height < 3 || organized.size() != std::size_t(width) * height) return 0;
-  flags->assign(organized.size(), 0);
-  // Ranges once (NaN stays NaN: it is close to nothing).
+  static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float), "three packed floats");
   std::vector<float> range(organized.size());
-  const float* xyz = organized.data()->data();  // Eigen::Vector3f is three packed floats
+  const float* xyz = organized.data()->data();
   for (std::size_t i = 0; i < organized.size(); ++i) {
     const float x = xyz[3 * i], y = xyz[3 * i + 1], z = xyz[3 * i + 2];
-    range[i] = std::sqrt(x * x + y * y + z * z);
+    range[i] = x * x + y * y + z * z;
   }
-  const float base = static_cast<float>(options.gap_base), per_metre = static_cast<float>(options.gap_per_metre);
-  const int needed = options.min_neighbours;
+  rangesFromSquares(range.data(), range.size());
+  flags->resize(range.size());
+  std::size_t count = 0;
+  for (int v = 0; v < height; ++v) {
+    const float* row = &range[std::size_t(v) * width];
+    count += flagFlyingRow(v > 0 ? row - width : nullptr, row, v + 1 < height ? row + width : nullptr, width, options,
+                           &(*flags)[std::size_t(v) * width]);
+  }
+  return count;
+}
+
+// NaN stays NaN: it is close to nothing.
+void rangesFromSquares(float* values, std::size_t count) {
+  for (std::size_t i = 0; i < count; ++i) values[i] = std::sqrt(values[i]);
+}
+
+std::size_t flagFlyingRow(const float* up, const float* mid, const float* down, int width,
+                          const FlyingPixelOptions& options, std::uint8_t* out) {
+  std::fill_n(out, width, std::uint8_t{0});
   // The image's border rows and columns are kept: with fewer neighbours they would be judged by
   // another rule, and a mixed pixel there floats at the view's edge only.
-  for (int v = 1; v + 1 < height; ++v) {
-    const float* up = &range[std::size_t(v - 1) * width];
-    const float* mid = up + width;
-    const float* down = mid + width;
-    std::uint8_t* out = &(*flags)[std::size_t(v) * width];
-    // Branch-free per pixel, so that the compiler can take several at a time.
-    for (int u = 1; u + 1 < width; ++u) {
-      const float r = mid[u], gap = base + per_metre * r;
-      const int close = (std::abs(up[u - 1] - r) <= gap) + (std::abs(up[u] - r) <= gap) +
-                        (std::abs(up[u + 1] - r) <= gap) + (std::abs(mid[u - 1] - r) <= gap) +
-                        (std::abs(mid[u + 1] - r) <= gap) + (std::abs(down[u - 1] - r) <= gap) +
-                        (std::abs(down[u] - r) <= gap) + (std::abs(down[u + 1] - r) <= gap);
-      out[u] = static_cast<std::uint8_t>((close < needed) & (r == r));
-    }
+  if (!options.enabled || !up || !down || width < 3) return 0;
+  const float base = static_cast<float>(options.gap_base), per_metre = static_cast<float>(options.gap_per_metre);
+  const int needed = options.min_neighbours;
+  // Branch-free per pixel, so that the compiler can take several at a time.
+  for (int u = 1; u + 1 < width; ++u) {
+    const float r = mid[u], gap = base + per_metre * r;
+    const int close = (std::abs(up[u - 1] - r) <= gap) + (std::abs(up[u] - r) <= gap) +
+                      (std::abs(up[u + 1] - r) <= gap) + (std::abs(mid[u - 1] - r) <= gap) +
+                      (std::abs(mid[u + 1] - r) <= gap) + (std::abs(down[u - 1] - r) <= gap) +
+                      (std::abs(down[u] - r) <= gap) + (std::abs(down[u + 1] - r) <= gap);
+    out[u] = static_cast<std::uint8_t>((close < needed) & (r == r));
   }
   std::size_t count = 0;
-  for (std::uint8_t f : *flags) count += f;
+  for (int u = 0; u < width; ++u) count += out[u];
   return count;
 }
 

@@ -92,16 +92,24 @@ void SliceGrid::clear() {
   geometry_ = nextGeometry();
   width_ = height_ = 0;
   data_.clear();
+  shift_grid_.clear();
   layer_may_be_known_.assign(layer_may_be_known_.size(), false);
+}
+
+// OctoMap's search takes depth 0 for "all the way down": a band whose keys differ in their top
+// bit (one across z = 0) shares only the root.
+const octomap::OcTreeNode* SliceGrid::descendTo(std::uint16_t kx, std::uint16_t ky, std::uint16_t kz,
+                                                unsigned depth) const {
+  return depth == 0 ? tree_.getRoot() : tree_.search(octomap::OcTreeKey(kx, ky, kz), depth);
 }
 
 // One voxel's value from the tree: a descent from `top`, the deepest node holding the column's band.
 const octomap::OcTreeNode* SliceGrid::bandVoxel(const octomap::OcTreeNode* top, std::uint16_t kx, std::uint16_t ky,
-                                                unsigned kz) const {
+                                                unsigned kz, unsigned top_depth) const {
   const unsigned depth = tree_.getTreeDepth();
   const octomap::OcTreeKey key(kx, ky, static_cast<std::uint16_t>(kz));
   const octomap::OcTreeNode* node = top;
-  for (unsigned d = band_common_depth_; d < depth && node && tree_.nodeHasChildren(node); ++d) {
+  for (unsigned d = top_depth; d < depth && node && tree_.nodeHasChildren(node); ++d) {
     const unsigned pos = octomap::computeChildIdx(key, static_cast<int>(depth - 1 - d));
     node = tree_.nodeChildExists(node, pos) ? tree_.getNodeChild(node, pos) : nullptr;
   }
@@ -145,10 +153,12 @@ std::int8_t SliceGrid::columnValue(std::uint16_t kx, std::uint16_t ky) const {
       take(cached);
     } else if (LayerCache::isUnloaded(cached)) {  // the tree is current for it (a pruned leaf may hold the whole band)
       if (!searched) {
-        top = tree_.search(octomap::OcTreeKey(kx, ky, band_lo_), band_common_depth_);
+        top = descendTo(kx, ky, band_lo_, band_common_depth_);
         searched = true;
       }
-      if (const octomap::OcTreeNode* node = top ? bandVoxel(top, kx, ky, kz) : nullptr) take(node->getLogOdds());
+      if (const octomap::OcTreeNode* node = top ? bandVoxel(top, kx, ky, kz, band_common_depth_) : nullptr) {
+        take(node->getLogOdds());
+      }
     }
   }
   if (!known) return kUnknownCell;
@@ -164,12 +174,22 @@ std::int8_t SliceGrid::shiftedColumnValue(std::uint16_t kx, std::uint16_t ky, in
   float most = -std::numeric_limits<float>::infinity(), least = std::numeric_limits<float>::infinity();
   const unsigned cell = LayerCache::cellIndex(kx, ky);
   const int lo = std::max(0, int(band_lo_) + shift), hi = std::min(0xFFFF, int(band_hi_) + shift);
+  // As columnValue: one descent to the deepest node holding this column's band, a few levels per layer.
+  unsigned differing = unsigned(lo) ^ unsigned(hi), bits = 0;
+  while (differing) differing >>= 1, ++bits;
+  const unsigned common_depth = tree_.getTreeDepth() - bits;
+  const octomap::OcTreeNode* top = nullptr;
+  bool searched = false;
   for (int kz = lo; kz <= hi; ++kz) {
     const LayerCache::Layer* layer = cache_ ? cache_->findLayer(std::uint16_t(kz)) : nullptr;
     const LayerCache::Tile* tile = layer ? layer->tile(kx, ky) : nullptr;
     float value = tile ? tile->value[cell] : LayerCache::unloadedValue();
     if (LayerCache::isUnloaded(value)) {
-      const octomap::OcTreeNode* node = tree_.search(octomap::OcTreeKey(kx, ky, std::uint16_t(kz)));
+      if (!searched) {
+        top = descendTo(kx, ky, std::uint16_t(lo), common_depth);
+        searched = true;
+      }
+      const octomap::OcTreeNode* node = top ? bandVoxel(top, kx, ky, unsigned(kz), common_depth) : nullptr;
       if (!node) continue;
       value = node->getLogOdds();
     }
@@ -184,8 +204,26 @@ std::int8_t SliceGrid::shiftedColumnValue(std::uint16_t kx, std::uint16_t ky, in
 
 int SliceGrid::columnShift(std::uint16_t kx, std::uint16_t ky) const {
   if (shift_.empty()) return 0;
+  const int i = int(kx) - origin_key_x_, j = int(ky) - origin_key_y_;
+  if (!shift_grid_.empty() && i >= 0 && j >= 0 && i < width_ && j < height_) {
+    return shift_grid_[std::size_t(j) * width_ + i];
+  }
   const auto it = shift_.find(std::uint32_t(kx) | std::uint32_t(ky) << 16);
-  return it == shift_.end() ? 0 : it->second;
+  return it == shift_.end() ? 0 : std::clamp(it->second, -127, 127);
+}
+
+void SliceGrid::fillShiftGrid() {
+  if (shift_.empty() || width_ == 0) {
+    shift_grid_.clear();
+    return;
+  }
+  shift_grid_.assign(data_.size(), 0);
+  for (const auto& [column, shift] : shift_) {
+    const int i = int(column & 0xFFFF) - origin_key_x_, j = int(column >> 16) - origin_key_y_;
+    if (i >= 0 && j >= 0 && i < width_ && j < height_) {
+      shift_grid_[std::size_t(j) * width_ + i] = static_cast<std::int8_t>(std::clamp(shift, -127, 127));
+    }
+  }
 }
 
 void SliceGrid::shiftColumns(const std::vector<std::pair<std::uint32_t, int>>& shifts) {
@@ -197,8 +235,20 @@ void SliceGrid::shiftColumns(const std::vector<std::pair<std::uint32_t, int>>& s
     box.add(octomap::OcTreeKey(std::uint16_t(column & 0xFFFF), std::uint16_t(column >> 16), 0));
   }
   shift_min_ = shift_max_ = 0;
-  for (const auto& [column, shift] : shift_) shift_min_ = std::min(shift_min_, shift), shift_max_ = std::max(shift_max_, shift);
+  for (const auto& [column, shift] : shift_) {
+    shift_min_ = std::min(shift_min_, std::clamp(shift, -127, 127));
+    shift_max_ = std::max(shift_max_, std::clamp(shift, -127, 127));
+  }
   ensureCovers(box.min[0], box.min[1], box.max[0], box.max[1]);
+  if (shift_.empty()) {
+    shift_grid_.clear();
+  } else {
+    if (shift_grid_.size() != data_.size()) shift_grid_.assign(data_.size(), 0);
+    for (const auto& [column, shift] : shifts) {
+      const int i = int(column & 0xFFFF) - origin_key_x_, j = int(column >> 16) - origin_key_y_;
+      shift_grid_[std::size_t(j) * width_ + i] = static_cast<std::int8_t>(std::clamp(shift, -127, 127));
+    }
+  }
   findBandLayers();
   for (const auto& [column, shift] : shifts) {
     const std::uint16_t kx = std::uint16_t(column & 0xFFFF), ky = std::uint16_t(column >> 16);
@@ -239,6 +289,7 @@ void SliceGrid::ensureCovers(std::uint16_t kx0, std::uint16_t ky0, std::uint16_t
   origin_key_y_ = static_cast<std::uint16_t>(ny0);
   width_ = new_w;
   height_ = new_h;
+  fillShiftGrid();
 }
 
 void SliceGrid::update(const KeyBox& box) {

@@ -2,6 +2,7 @@
 
 #include <sensor_msgs/point_cloud2_iterator.h>
 
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 
@@ -113,15 +114,19 @@ inline Eigen::Vector3f* transformOne(const Eigen::Vector3f& v, const Eigen::Matr
 
 // The finite points of rows [0, msg.height) read with `read(point_bytes)`, in the map frame, in
 // order from `out` on; the others counted. Returns the end of the points written.
+// Rows [row0, row1). Points flagged in `skip` (one byte per point of row row0, for a single
+// row; null: none) are left out uncounted.
 template <typename Read>
 Eigen::Vector3f* transformPoints(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry3f& to_map, Read read,
-                                 Eigen::Vector3f* out, ReadingCounts* left_out) {
+                                 Eigen::Vector3f* out, ReadingCounts* left_out, std::uint32_t row0, std::uint32_t row1,
+                                 const std::uint8_t* skip) {
   const Eigen::Matrix3f rotation = to_map.linear();
   const Eigen::Vector3f translation = to_map.translation();
-  for (std::uint32_t row = 0; row < msg.height; ++row) {
+  for (std::uint32_t row = row0; row < row1; ++row) {
     const std::uint8_t* p = msg.data.data() + std::size_t(row) * msg.row_step;
     for (std::uint32_t col = 0; col < msg.width; ++col, p += msg.point_step) {
       prefetchAhead(p);
+      if (skip && skip[col]) continue;
       out = transformOne(read(p), rotation, translation, out, left_out);
     }
   }
@@ -136,8 +141,10 @@ Eigen::Vector3f* transformPoints(const sensor_msgs::PointCloud2& msg, const Eige
 // multiply-add), so the same floats
 // (PointCloudConversion.PointsAreTheRotationAndTranslationToTheBit). Eigen's product of one point
 // took ~33 instructions, a third of them shuffles.
+// Rows [row0, row1); `skip` as transformPoints'.
 Eigen::Vector3f* transformXyzIn16Bytes(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry3f& to_map,
-                                       Eigen::Vector3f* out, ReadingCounts* left_out) {
+                                       Eigen::Vector3f* out, ReadingCounts* left_out, std::uint32_t row0,
+                                       std::uint32_t row1, const std::uint8_t* skip) {
   const Eigen::Matrix3f rotation = to_map.linear();
   const Eigen::Vector3f translation = to_map.translation();
   __m128 r[3][3], t[3];
@@ -152,11 +159,19 @@ Eigen::Vector3f* transformXyzIn16Bytes(const sensor_msgs::PointCloud2& msg, cons
   };
   const std::uint32_t width = msg.width;
   std::uint64_t nans = 0, non_finite = 0;  // in groups of four without a finite point
-  for (std::uint32_t row = 0; row < msg.height; ++row) {
+  for (std::uint32_t row = row0; row < row1; ++row) {
     const std::uint8_t* p = msg.data.data() + std::size_t(row) * msg.row_step;
+    const std::uint8_t* skipped = skip;
     std::uint32_t col = 0;
     for (; col + 4 <= width; col += 4, p += 64) {
       prefetchAhead(p);
+      std::uint32_t flagged;  // four flags at once: a flying pixel is rare
+      if (skipped && (std::memcpy(&flagged, skipped + col, 4), flagged != 0)) {
+        for (int k = 0; k < 4; ++k) {
+          if (!skipped[col + k]) one(p + 16 * k);
+        }
+        continue;
+      }
       const float* f = reinterpret_cast<const float*>(p);
       __m128 x = _mm_loadu_ps(f), y = _mm_loadu_ps(f + 4), z = _mm_loadu_ps(f + 8), w = _mm_loadu_ps(f + 12);
       _MM_TRANSPOSE4_PS(x, y, z, w);  // the four points' x, y and z
@@ -189,7 +204,9 @@ Eigen::Vector3f* transformXyzIn16Bytes(const sensor_msgs::PointCloud2& msg, cons
       _mm_store_ss(o + 11, _mm_movehl_ps(last, last));
       out += 4;
     }
-    for (; col < width; ++col, p += 16) one(p);
+    for (; col < width; ++col, p += 16) {
+      if (!skipped || !skipped[col]) one(p);
+    }
   }
   (*left_out)[ReadingKind::kNaN] += nans;
   (*left_out)[ReadingKind::kInfinite] += non_finite - nans;
@@ -205,51 +222,75 @@ void cloudPointsInMap(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry
   const sensor_msgs::PointField& fx = *fieldNamed(msg, "x");
   const sensor_msgs::PointField& fy = *fieldNamed(msg, "y");
   const sensor_msgs::PointField& fz = *fieldNamed(msg, "z");
-  if (flying && flying->enabled && msg.height > 2 && msg.width > 2) {
-    // The frame as it came (sensor frame, NaN kept) for the test, then the kept points moved.
-    std::vector<Eigen::Vector3f> organized(std::size_t(msg.width) * msg.height);
-    std::size_t k = 0;
-    for (std::uint32_t row = 0; row < msg.height; ++row) {
-      const std::uint8_t* p = msg.data.data() + std::size_t(row) * msg.row_step;
-      for (std::uint32_t col = 0; col < msg.width; ++col, p += msg.point_step) {
-        organized[k++] = Eigen::Vector3f(coordinate(p, fx), coordinate(p, fy), coordinate(p, fz));
-      }
-    }
-    std::vector<std::uint8_t> flags;
-    (*left_out)[ReadingKind::kFlyingPixel] += flagFlyingPixels(organized, int(msg.width), int(msg.height), *flying, &flags);
-    const Eigen::Matrix3f rotation = to_map.linear();
-    const Eigen::Vector3f translation = to_map.translation();
-    points->resize(organized.size());
-    Eigen::Vector3f* out = points->data();
-    for (std::size_t i = 0; i < organized.size(); ++i) {
-      if (!flags[i]) out = transformOne(organized[i], rotation, translation, out, left_out);
-    }
-    points->resize(static_cast<std::size_t>(out - points->data()));
-    return;
-  }
   points->resize(std::size_t(msg.width) * msg.height);
   const bool all_float = fx.datatype == sensor_msgs::PointField::FLOAT32 &&
                          fy.datatype == sensor_msgs::PointField::FLOAT32 && fz.datatype == sensor_msgs::PointField::FLOAT32;
-  Eigen::Vector3f* end = nullptr;
+  // The transform of rows [row0, row1), its points written from `out` on.
+  const bool xyz16 = all_float && fx.offset == 0 && fy.offset == 4 && fz.offset == 8 && msg.point_step == 16;
+  const auto transformRows = [&](std::uint32_t row0, std::uint32_t row1, const std::uint8_t* skip,
+                                 Eigen::Vector3f* out) -> Eigen::Vector3f* {
 #if defined(__SSE2__)
-  if (all_float && fx.offset == 0 && fy.offset == 4 && fz.offset == 8 && msg.point_step == 16) {
-    end = transformXyzIn16Bytes(msg, to_map, points->data(), left_out);
-  } else
+    if (xyz16) return transformXyzIn16Bytes(msg, to_map, out, left_out, row0, row1, skip);
 #endif
-  if (all_float) {  // what cameras send: no per-coordinate type test (a third of the conversion)
-    const std::uint32_t ox = fx.offset, oy = fy.offset, oz = fz.offset;
-    end = transformPoints(msg, to_map, [ox, oy, oz](const std::uint8_t* p) {
-      float x, y, z;
-      std::memcpy(&x, p + ox, sizeof x);
-      std::memcpy(&y, p + oy, sizeof y);
-      std::memcpy(&z, p + oz, sizeof z);
-      return Eigen::Vector3f(x, y, z);
-    }, points->data(), left_out);
-  } else {
-    end = transformPoints(msg, to_map, [&](const std::uint8_t* p) {
+    if (all_float) {  // what cameras send: no per-coordinate type test (a third of the conversion)
+      const std::uint32_t ox = fx.offset, oy = fy.offset, oz = fz.offset;
+      return transformPoints(msg, to_map, [ox, oy, oz](const std::uint8_t* p) {
+        float x, y, z;
+        std::memcpy(&x, p + ox, sizeof x);
+        std::memcpy(&y, p + oy, sizeof y);
+        std::memcpy(&z, p + oz, sizeof z);
+        return Eigen::Vector3f(x, y, z);
+      }, out, left_out, row0, row1, skip);
+    }
+    return transformPoints(msg, to_map, [&](const std::uint8_t* p) {
       return Eigen::Vector3f(coordinate(p, fx), coordinate(p, fy), coordinate(p, fz));
-    }, points->data(), left_out);
+    }, out, left_out, row0, row1, skip);
+  };
+  if (!flying || !flying->enabled || msg.height < 3 || msg.width < 3) {
+    Eigen::Vector3f* end = transformRows(0, msg.height, nullptr, points->data());
+    points->resize(static_cast<std::size_t>(end - points->data()));
+    return;
   }
+  // An organized frame's flying pixels, streamed: row v's ranges are taken (sensor frame) while
+  // row v - 1 is judged against its neighbours and moved, its flying pixels left out. Three rows
+  // of ranges and one of flags, per thread and kept: a frame's worth of each cost a pass of
+  // memory and its page faults.
+  const std::uint32_t width = msg.width;
+  thread_local std::vector<float> rows;
+  thread_local std::vector<std::uint8_t> flags;
+  rows.resize(3 * std::size_t(width));
+  flags.resize(width);
+  const auto rangesOf = [&](std::uint32_t row, float* range) {
+    const std::uint8_t* p = msg.data.data() + std::size_t(row) * msg.row_step;
+    std::uint32_t col = 0;
+#if defined(__SSE2__)
+    if (xyz16) {
+      for (; col + 4 <= width; col += 4, p += 64) {  // four points at a time
+        const float* f = reinterpret_cast<const float*>(p);
+        __m128 x = _mm_loadu_ps(f), y = _mm_loadu_ps(f + 4), z = _mm_loadu_ps(f + 8), w = _mm_loadu_ps(f + 12);
+        _MM_TRANSPOSE4_PS(x, y, z, w);
+        _mm_storeu_ps(range + col, _mm_add_ps(_mm_add_ps(_mm_mul_ps(x, x), _mm_mul_ps(y, y)), _mm_mul_ps(z, z)));
+      }
+    }
+#endif
+    for (; col < width; ++col, p += msg.point_step) {
+      const float x = coordinate(p, fx), y = coordinate(p, fy), z = coordinate(p, fz);
+      range[col] = x * x + y * y + z * z;
+    }
+    rangesFromSquares(range, width);
+  };
+  const auto slot = [&](std::uint32_t row) { return &rows[std::size_t(row % 3) * width]; };
+  Eigen::Vector3f* end = points->data();
+  std::uint64_t flying_count = 0;
+  rangesOf(0, slot(0));
+  for (std::uint32_t row = 0; row < msg.height; ++row) {
+    if (row + 1 < msg.height) rangesOf(row + 1, slot(row + 1));
+    const float* up = row > 0 ? slot(row - 1) : nullptr;
+    const float* down = row + 1 < msg.height ? slot(row + 1) : nullptr;
+    flying_count += flagFlyingRow(up, slot(row), down, int(width), *flying, flags.data());
+    end = transformRows(row, row + 1, flags.data(), end);
+  }
+  (*left_out)[ReadingKind::kFlyingPixel] += flying_count;
   points->resize(static_cast<std::size_t>(end - points->data()));
 }
 

@@ -97,7 +97,8 @@ class FloorLayer {
 
   // Floor levels (height / resolution, rounded: the voxel layer the floor is in) for the slice.
   // The level where no cell is known follows the floors found, by whole voxels and only when it
-  // is two or more voxels off, so that noise does not move the slice's band back and forth.
+  // is two or more voxels off, so that noise does not move the slice's band back and forth; a
+  // cell's level is that level unless its floor is three quarters of a voxel or more off it.
   struct LevelChanges {
     int fallback_level = 0;
     bool fallback_changed = false;
@@ -124,7 +125,15 @@ class FloorLayer {
   void setCell(int kx, int ky, double height, bool seen);
   // The cell's floor at (x, y), or `otherwise` where none is known.
   double knownHeightAt(double x, double y, double otherwise) const;
-  int levelOf(double height) const { return static_cast<int>(std::lround(height / resolution_)); }
+  // A cell's voxel layer; within three quarters of a layer of the fallback's, the fallback's: a
+  // level floor's noise and a few millimetres of tilt must not split it into shifted columns (a
+  // shifted column is read voxel by voxel).
+  int levelOf(double height) const {
+    const double x = height / resolution_;
+    return std::abs(x - fallback_level_) < 0.75 ? fallback_level_ : static_cast<int>(std::lround(x));
+  }
+  // Every known cell's level again (the fallback's level changed).
+  void relevel();
 
   mutable std::mutex mutex_;
   double resolution_;

@@ -26,4 +26,12 @@ struct FlyingPixelOptions {
 std::size_t flagFlyingPixels(const std::vector<Eigen::Vector3f>& organized, int width, int height,
                              const FlyingPixelOptions& options, std::vector<std::uint8_t>* flags);
 
+// The same a row at a time, for a caller that streams a frame through a few rows of memory:
+// squared ranges (x^2 + y^2 + z^2 in the sensor frame; NaN where no depth) made ranges in place,
+// and one row's flags (`width` bytes) from its ranges and its neighbours' (null above the first
+// or below the last row: that row is kept). Returns the row's flying pixels.
+void rangesFromSquares(float* values, std::size_t count);
+std::size_t flagFlyingRow(const float* up, const float* row, const float* down, int width,
+                          const FlyingPixelOptions& options, std::uint8_t* flags);
+
 }  // namespace octo_slice_mapper
