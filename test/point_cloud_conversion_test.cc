@@ -6,6 +6,7 @@
 #include <sensor_msgs/point_cloud2_iterator.h>
 
 #include <cmath>
+#include <limits>
 #include <cstring>
 #include <random>
 #include <string>
@@ -173,4 +174,42 @@ TEST(PointCloudConversion, Float64CoordinatesAreRead) {
   cloudPointsInMap(cloud, Eigen::Isometry3f::Identity(), &points, &left_out);
   ASSERT_EQ(points.size(), 1u);
   EXPECT_TRUE(points[0].isApprox(Eigen::Vector3f(1.5f, -2.0f, 0.25f)));
+}
+
+TEST(PointCloudConversion, AnOrganizedFramesFlyingPixelsAreLeftOutAndCounted) {
+  // A box at 1.5 m before a wall at 4 m, its left edge's column mixed (no two alike), some NaN:
+  // converted with the filter, the mixed column is left out and counted, everything else is the
+  // conversion without it, point for point.
+  constexpr int kW = 37, kH = 23;  // not a multiple of four: the rows' ends go one by one
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  std::vector<Eigen::Vector3f> points(kW * kH);
+  for (int v = 0; v < kH; ++v) {
+    for (int u = 0; u < kW; ++u) {
+      float depth = u >= 14 && u < 30 ? 1.5f : 4.0f;
+      if (u == 13) depth = (v % 2) ? 2.3f : 3.1f;
+      const Eigen::Vector3f ray((u - kW / 2) / 500.0f, (v - kH / 2) / 500.0f, 1.0f);
+      points[std::size_t(v) * kW + u] = (u == 5 && v == 7) ? Eigen::Vector3f(nan, nan, nan) : Eigen::Vector3f(ray * depth);
+    }
+  }
+  const sensor_msgs::PointCloud2 msg = organizedCloud(points, kW, kH, "camera");
+  const Eigen::Isometry3f pose(Eigen::Translation3f(1.0f, 2.0f, 0.5f) * Eigen::AngleAxisf(0.3f, Eigen::Vector3f::UnitZ()));
+  std::vector<Eigen::Vector3f> plain, filtered;
+  ReadingCounts plain_left, filtered_left;
+  cloudPointsInMap(msg, pose, &plain, &plain_left);
+  const octo_slice_mapper::FlyingPixelOptions flying;
+  cloudPointsInMap(msg, pose, &filtered, &filtered_left, &flying);
+  EXPECT_EQ(filtered_left[ReadingKind::kFlyingPixel], std::uint64_t(kH - 2));  // the border rows are kept
+  EXPECT_EQ(filtered_left[ReadingKind::kNaN], 1u);
+  ASSERT_EQ(filtered.size() + kH - 2, plain.size());
+  std::size_t k = 0;
+  for (int v = 0; v < kH; ++v) {
+    for (int u = 0; u < kW; ++u) {
+      if (u == 5 && v == 7) continue;
+      const Eigen::Vector3f& p = plain[std::size_t(v) * kW + u - (v > 7 || (v == 7 && u > 5) ? 1 : 0)];
+      if (u == 13 && v > 0 && v + 1 < kH) continue;  // left out
+      ASSERT_LT(k, filtered.size());
+      EXPECT_EQ(filtered[k++], p) << u << " " << v;
+    }
+  }
+  EXPECT_EQ(k, filtered.size());
 }

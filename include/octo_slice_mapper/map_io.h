@@ -86,8 +86,11 @@ bool addPng(const GridImage& grid, const std::string& path, FileSet* files, std:
 // `incremental`, PREFIX_incremental.{pgm,yaml,png} from it, as one set: on any failure none of
 // them replaces the previous file. Appends the files written. Every file carries the set's save
 // id (a hash of the set's content; see readSaveId).
+// With `heights` (not empty), PREFIX_heights.{yaml,bin,png} too (height_map.h).
+struct HeightMap;
 bool saveMapSet(const octomap::OcTree& tree, const GridImage& grid, const std::string& prefix,
-                std::vector<std::string>* written, std::string* error, const GridImage* incremental = nullptr);
+                std::vector<std::string>* written, std::string* error, const GridImage* incremental = nullptr,
+                const HeightMap* heights = nullptr);
 
 // The save id a file of a set carries: 16 hex digits, "" if it has none (or cannot be read).
 std::string readSaveId(const std::string& path);

@@ -82,9 +82,9 @@ GridImage exportedOptimized(const octomap::OcTree& tree, const PassBand& band, c
 // Writes the map set of a save (saveMapSet): with a global pass's `optimized` grid, PREFIX.* hold
 // it (the .bt and .ot a copy of `tree` with the grid written into its band, the live tree
 // unchanged; the 2D files exportedOptimized); without, the incremental map. PREFIX_incremental.*
-// hold `incremental` either way.
+// hold `incremental` either way; `heights`, when given, PREFIX_heights.*.
 bool saveBestMapSet(const octomap::OcTree& tree, const PassBand& band, const GridImage* optimized,
                     const GridImage& incremental, const std::string& prefix, std::vector<std::string>* written,
-                    std::string* error);
+                    std::string* error, const HeightMap* heights = nullptr);
 
 }  // namespace octo_slice_mapper

@@ -62,6 +62,11 @@ FloorStatus FloorLayer::status() const {
   return status_;
 }
 
+double FloorLayer::fallbackHeight() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return fallback_found_ ? fallback_height_ : 0.0;
+}
+
 int FloorLayer::fallbackLevel() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return fallback_level_;

@@ -1,5 +1,7 @@
 #include "octo_slice_mapper/map_io.h"
 
+#include "octo_slice_mapper/internal/height_map.h"
+
 #include <pcl/PCLPointCloud2.h>
 #include <pcl/io/pcd_io.h>
 #include <png.h>
@@ -564,7 +566,8 @@ void stampSaveId(std::pair<std::string, std::string>* file, const std::string& i
 }  // namespace
 
 bool saveMapSet(const octomap::OcTree& tree, const GridImage& grid, const std::string& prefix,
-                std::vector<std::string>* written, std::string* error, const GridImage* incremental) {
+                std::vector<std::string>* written, std::string* error, const GridImage* incremental,
+                const HeightMap* heights) {
   FileSet files;
   if (!addBinaryTree(tree, prefix + ".bt", &files, error) || !addFullTree(tree, prefix + ".ot", &files, error) ||
       !addPointCloud(occupiedVoxels(tree), prefix + ".pcd", &files, error) ||
@@ -575,8 +578,11 @@ bool saveMapSet(const octomap::OcTree& tree, const GridImage& grid, const std::s
   if (incremental && (!addPgmYaml(*incremental, base, &files, error) || !addPng(*incremental, base + ".png", &files, error))) {
     return false;
   }
+  if (heights && !addHeightMap(*heights, prefix, &files, error)) return false;
   const std::string id = saveIdOf(files);
-  for (auto& file : files) stampSaveId(&file, id);
+  for (auto& file : files) {
+    if (!endsWith(file.first, ".bin")) stampSaveId(&file, id);  // raw floats: no room for a note
+  }
   return writeFilesAtomically(files, written, error);
 }
 

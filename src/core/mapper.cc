@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <utility>
 
+#include "octo_slice_mapper/internal/height_map.h"
 #include "octo_slice_mapper/map_io.h"
 
 namespace octo_slice_mapper {
@@ -269,7 +270,8 @@ const octomap::OcTree& Mapper::tree() {
 
 bool Mapper::save(const std::string& prefix, std::vector<std::string>* written, std::string* error) {
   const GridImage grid = gridImageOf(*slice_);
-  return saveMapSet(tree(), grid, prefix, written, error, &grid);
+  const HeightMap heights = heightMapOf(tree(), *floor_, grid);
+  return saveMapSet(tree(), grid, prefix, written, error, &grid, &heights);
 }
 
 OptimizedMap Mapper::optimize(bool warm_start, const ProgressFn& progress) const {

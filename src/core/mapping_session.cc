@@ -1,5 +1,7 @@
 #include "octo_slice_mapper/mapping_session.h"
 
+#include "octo_slice_mapper/internal/height_map.h"
+
 #include <algorithm>
 #include <utility>
 
@@ -116,8 +118,10 @@ SaveOutcome MappingSession::save(const std::string& prefix, bool with_global_pas
                                     options_.warm_start ? &snapshot.slice : nullptr, progress);
     }
     const PassBand band = PassBand::of(snapshot.scans, *snapshot.tree, snapshot.band_lo, snapshot.band_hi);
+    // The floor layer guards itself: read here, off the map's lock, as the lent octree is.
+    const HeightMap heights = heightMapOf(*snapshot.tree, mapper_.floor(), snapshot.slice);
     out.ok = saveBestMapSet(*snapshot.tree, band, out.optimized ? &out.optimized->grid : nullptr, snapshot.slice, prefix,
-                            &out.files, &out.error);
+                            &out.files, &out.error, &heights);
   }
   if (out.optimized) applyOptimized(out.optimized->grid);
   if (out.ok) {

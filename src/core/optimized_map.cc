@@ -150,11 +150,12 @@ GridImage exportedOptimized(const octomap::OcTree& tree, const PassBand& band, c
 
 bool saveBestMapSet(const octomap::OcTree& tree, const PassBand& band, const GridImage* optimized,
                     const GridImage& incremental, const std::string& prefix, std::vector<std::string>* written,
-                    std::string* error) {
-  if (!optimized) return saveMapSet(tree, incremental, prefix, written, error, &incremental);
+                    std::string* error, const HeightMap* heights) {
+  if (!optimized) return saveMapSet(tree, incremental, prefix, written, error, &incremental, heights);
   octomap::OcTree copy(tree);
   writeGridIntoBand(*optimized, band, &copy);
-  return saveMapSet(copy, exportedOptimized(tree, band, *optimized, incremental), prefix, written, error, &incremental);
+  return saveMapSet(copy, exportedOptimized(tree, band, *optimized, incremental), prefix, written, error, &incremental,
+                    heights);
 }
 
 }  // namespace octo_slice_mapper

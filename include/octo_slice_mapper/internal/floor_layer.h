@@ -108,6 +108,8 @@ class FloorLayer {
   static constexpr int kNoLevel = -0x7fffffff;
   LevelChanges takeLevelChanges();
   int fallbackLevel() const;
+  // The floor's height where no cell is known: the last found under a sensor (0 before any).
+  double fallbackHeight() const;
 
   FloorStatus status() const;
   double resolution() const;
