@@ -38,6 +38,9 @@ TEST(DepthCamera, TheNavigationBandShowsTheTableTopAndTheOverhangTheLidarBandDoe
       for (const auto& kv : status.values) diagnostics[kv.key] = std::atof(kv.value.c_str());
     }
   });
+  nav_msgs::OccupancyGrid::ConstPtr heights;
+  ros::Subscriber heights_sub = nh.subscribe<nav_msgs::OccupancyGrid>(
+      "/nav_mapper/height_map", 1, [&](const nav_msgs::OccupancyGrid::ConstPtr& msg) { heights = msg; });
   ros::Publisher cloud_pub = nh.advertise<sensor_msgs::PointCloud2>("cloud_in", 10);
   ASSERT_TRUE(waitFor([&] { return cloud_pub.getNumSubscribers() >= 2; }, 20.0)) << "the mappers did not subscribe";
 
@@ -123,6 +126,23 @@ TEST(DepthCamera, TheNavigationBandShowsTheTableTopAndTheOverhangTheLidarBandDoe
   }
   EXPECT_GT(floor_free, floor * 7 / 10) << floor_free << " of " << floor << " floor cells free";
   EXPECT_GT(diagnostics["clouds_received"], 0.0);
+
+  // The floor was found, and ~height_map has the table top's height above it (2 cm steps: the
+  // top voxel's top, 0.70 or 0.75 m) and the bare floor at 0, on /map's lattice.
+  EXPECT_GT(diagnostics["floor_frames_found"], 0.0);
+  ASSERT_TRUE(waitFor([&] { return heights && !heights->data.empty(); }, 10.0)) << "no ~height_map";
+  EXPECT_NEAR(std::remainder(heights->info.origin.position.x - nav->info.origin.position.x, 0.05), 0.0, 1e-4);
+  int top_height = 0, top_cells = 0, bare = 0;
+  for (double x = 2.75; x < 3.5; x += 0.1) {
+    for (double y = 1.7; y < 2.1; y += 0.1) {
+      const int v = cellOf(heights, x, y);
+      top_cells += v >= 0;
+      top_height += v >= 32 && v <= 40;
+    }
+  }
+  for (double x = 1.5; x < 2.4; x += 0.1) bare += cellOf(heights, x, 1.9) == 0;
+  EXPECT_GT(top_height, top_cells * 7 / 10) << top_height << " of " << top_cells << " table-top cells at 0.64-0.80 m";
+  EXPECT_GT(bare, 5) << "bare floor cells between the robot and the table";
 }
 
 int main(int argc, char** argv) {

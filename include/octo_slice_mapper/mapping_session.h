@@ -106,6 +106,8 @@ class MappingSession {
   // inserter's evidence window, besides the mapper's own.
   std::size_t cloudPreparerBytes();
 
+  // The floor layer, which guards itself: readable from any thread without the map's lock.
+  const FloorLayer& floor() const { return mapper_.floor(); }
   // The mapper without the lock: only for a single-threaded user (the offline tool, tests).
   Mapper& mapperUnlocked() { return mapper_; }
 

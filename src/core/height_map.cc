@@ -10,36 +10,66 @@
 
 namespace octo_slice_mapper {
 
+namespace {
+
+// The heights on `map`'s raster (its geometry set, its grids empty).
+void fillHeights(const std::vector<OccupiedVoxel>& voxels, const FloorLayer& floor, double resolution,
+                 double min_height, HeightMap* map) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  map->floor.assign(std::size_t(map->width) * map->height, nan);
+  map->top.assign(map->floor.size(), nan);
+  const auto cellOf = [&](double x, double y, std::size_t* index) {
+    const int i = int(std::floor((x - map->origin_x) / map->resolution));
+    const int j = int(std::floor((y - map->origin_y) / map->resolution));
+    if (i < 0 || j < 0 || i >= map->width || j >= map->height) return false;
+    *index = std::size_t(j) * map->width + i;
+    return true;
+  };
+  floor.forEachCell([&](std::uint16_t kx, std::uint16_t ky, float h) {
+    std::size_t index;
+    if (cellOf((kx - 32768 + 0.5) * resolution, (ky - 32768 + 0.5) * resolution, &index)) map->floor[index] = h;
+  });
+  const float fallback = static_cast<float>(floor.fallbackHeight());
+  for (const OccupiedVoxel& v : voxels) {
+    std::size_t index;
+    if (!cellOf(v.x, v.y, &index)) continue;
+    const float under = std::isnan(map->floor[index]) ? fallback : map->floor[index];
+    if (v.z - under < float(min_height)) continue;  // the voxel's centre: the floor's own voxels
+    const float top = v.z + 0.5f * float(resolution) - under;
+    if (std::isnan(map->top[index]) || top > map->top[index]) map->top[index] = top;
+  }
+}
+
+}  // namespace
+
 HeightMap heightMapOf(const octomap::OcTree& tree, const FloorLayer& floor, const GridImage& frame, double min_height) {
   HeightMap map;
   if (frame.width <= 0 || frame.height <= 0 || floor.status().cells == 0) return map;
   map.width = frame.width, map.height = frame.height;
   map.resolution = frame.resolution, map.origin_x = frame.origin_x, map.origin_y = frame.origin_y;
-  const float nan = std::numeric_limits<float>::quiet_NaN();
-  map.floor.assign(std::size_t(map.width) * map.height, nan);
-  map.top.assign(map.floor.size(), nan);
-  const auto cellOf = [&](double x, double y, std::size_t* index) {
-    const int i = int(std::floor((x - map.origin_x) / map.resolution)), j = int(std::floor((y - map.origin_y) / map.resolution));
-    if (i < 0 || j < 0 || i >= map.width || j >= map.height) return false;
-    *index = std::size_t(j) * map.width + i;
-    return true;
-  };
-  const double resolution = tree.getResolution();
-  floor.forEachCell([&](std::uint16_t kx, std::uint16_t ky, float h) {
-    std::size_t index;
-    if (cellOf(tree.keyToCoord(kx), tree.keyToCoord(ky), &index)) map.floor[index] = h;
-  });
-  const float fallback = static_cast<float>(floor.fallbackHeight());
-  for (const OccupiedVoxel& v : occupiedVoxels(tree)) {
-    std::size_t index;
-    if (!cellOf(v.x, v.y, &index)) continue;
-    const float under = std::isnan(map.floor[index]) ? fallback : map.floor[index];
-    if (v.z - under < float(min_height)) continue;  // the voxel's centre: the floor's own voxels
-    const float top = v.z + 0.5f * float(resolution) - under;
-    if (std::isnan(map.top[index]) || top > map.top[index]) map.top[index] = top;
-  }
+  fillHeights(occupiedVoxels(tree), floor, tree.getResolution(), min_height, &map);
   return map;
 }
+
+HeightMap heightMapOf(const std::vector<OccupiedVoxel>& voxels, const FloorLayer& floor, double resolution,
+                      double min_height) {
+  HeightMap map;
+  if (floor.status().cells == 0) return map;
+  // The keys' box of the floor's cells and the voxels.
+  int x0 = 1 << 30, y0 = 1 << 30, x1 = -(1 << 30), y1 = -(1 << 30);
+  const auto add = [&](int kx, int ky) {
+    x0 = std::min(x0, kx), y0 = std::min(y0, ky), x1 = std::max(x1, kx), y1 = std::max(y1, ky);
+  };
+  floor.forEachCell([&](std::uint16_t kx, std::uint16_t ky, float) { add(kx, ky); });
+  for (const OccupiedVoxel& v : voxels) add(floorKeyOf(v.x, resolution), floorKeyOf(v.y, resolution));
+  if (x1 < x0 || y1 < y0) return map;
+  map.width = x1 - x0 + 1, map.height = y1 - y0 + 1;
+  map.resolution = resolution;
+  map.origin_x = (x0 - 32768) * resolution, map.origin_y = (y0 - 32768) * resolution;
+  fillHeights(voxels, floor, resolution, min_height, &map);
+  return map;
+}
+
 
 namespace {
 

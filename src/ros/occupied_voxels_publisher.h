@@ -1,11 +1,15 @@
 // ~occupied_voxels: the occupied voxels' centres as a sensor_msgs/PointCloud2 (x, y, z and
-// occupancy, FLOAT32), the 3D map as MoveIt, 3D planners, rviz and PCL tools read it. Latched;
-// published at most once every ~occupied_voxels_period wall seconds, only when the map changed
-// and someone listens. The octree is walked on this publisher's own thread while insertion goes
-// on (MappingSession::occupiedVoxels), so the scans never wait for the walk.
+// occupancy, FLOAT32), the 3D map as MoveIt, 3D planners, rviz and PCL tools read it; and, once
+// a depth camera found a floor, ~height_map: per cell (on /map's lattice) the height of the top
+// of what stands on the floor, as a nav_msgs/OccupancyGrid whose values are 2 cm steps (0-100:
+// 0-2 m; 0 also where the floor is bare; -1 unknown), which rviz's Map display colours. Both
+// latched; published at most once every ~occupied_voxels_period wall seconds, only when the map
+// changed and someone listens. The octree is walked on this publisher's own thread while
+// insertion goes on (MappingSession::occupiedVoxels), so the scans never wait for the walk.
 #pragma once
 
 #include <ros/ros.h>
+#include <nav_msgs/OccupancyGrid.h>
 #include <sensor_msgs/PointCloud2.h>
 
 #include <cstdint>
@@ -13,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "octo_slice_mapper/internal/height_map.h"
 #include "octo_slice_mapper/map_io.h"
 #include "octo_slice_mapper/mapping_session.h"
 #include "ros/own_thread_timer.h"
@@ -23,6 +28,8 @@ namespace ros_adapter {
 // The voxels as occupiedVoxelsCloud (map_io.h) makes them, as a message.
 sensor_msgs::PointCloud2 occupiedVoxelsCloud(const std::vector<OccupiedVoxel>& voxels, const std::string& frame_id,
                                              const ros::Time& stamp);
+// A height map's tops as ~height_map carries them.
+nav_msgs::OccupancyGrid heightGrid(const HeightMap& map, const std::string& frame_id, const ros::Time& stamp);
 
 class OccupiedVoxelsPublisher {
  public:
@@ -34,6 +41,7 @@ class OccupiedVoxelsPublisher {
   MappingSession* session_;
   std::string frame_id_;
   ros::Publisher publisher_;
+  ros::Publisher heights_;
   std::uint64_t published_changes_ = ~std::uint64_t{0};  // the session's changes() last published
   OwnThreadTimer timer_;  // last: ticks use all of the above
 };

@@ -28,6 +28,10 @@ struct HeightMap {
 // floor where none is known being the layer's fallback. Empty when the layer knows no cell.
 HeightMap heightMapOf(const octomap::OcTree& tree, const FloorLayer& floor, const GridImage& frame,
                       double min_height = 0.05);
+// The same from the occupied voxels already walked (occupiedVoxels), on a raster of their own that
+// covers the floor's cells and the voxels, on the octree's lattice of cells (as /map's).
+HeightMap heightMapOf(const std::vector<OccupiedVoxel>& voxels, const FloorLayer& floor, double resolution,
+                      double min_height = 0.05);
 
 // PREFIX_heights.yaml (the raster's geometry and what the data file holds), PREFIX_heights.bin
 // (float32, little-endian: the floor grid, then the top grid, row by row from the bottom) and
