@@ -106,7 +106,13 @@ TEST_F(CloudPipelineTest, GivesTheMapOfInsertingOneByOneInTheOrderSubmitted) {
     forEachInput([&](const Scan&) { expected.push_back(0); }, [&](const SensorCloud&) { expected.push_back(1); });
     EXPECT_EQ(order, expected) << threads << " threads";
     session.withMapper([&](Mapper& m) {
-      one_by_one.withMapper([&](Mapper& reference) { expectSameTree(reference.tree(), m.tree()); });
+      one_by_one.withMapper([&](Mapper& reference) {
+        expectSameTree(reference.tree(), m.tree());
+        // The floor layer took the frames in their order too (each frame is measured against it).
+        EXPECT_EQ(m.floor().status().frames_found, reference.floor().status().frames_found);
+        EXPECT_EQ(m.floor().status().cells, reference.floor().status().cells);
+      });
+      EXPECT_GT(m.floor().status().frames_found, clouds_->size() / 2) << "the frames' floor was not found";
       EXPECT_EQ(m.stats().clouds_inserted, clouds_->size());
       EXPECT_EQ(m.stats().scans_inserted, scans_->size());
     });

@@ -98,6 +98,7 @@ class CloudPipeline {
   std::uint64_t next_ticket_ = 0;   // the next submit()'s
   std::uint64_t next_applied_ = 0;  // the ticket whose turn it is to be applied
   std::uint64_t floor_turn_ = 0;    // the ticket whose turn it is at the floor layer
+  std::condition_variable floor_changed_;  // floor_turn_ moved
   bool stopping_ = false;
   std::unique_ptr<std::atomic<std::size_t>[]> preparer_bytes_;  // per worker, written by it
   std::vector<std::thread> workers_;

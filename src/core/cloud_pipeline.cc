@@ -120,14 +120,14 @@ CloudPipeline::Ready CloudPipeline::prepare(Job job, std::unique_ptr<CloudPrepar
 // waits itself.
 void CloudPipeline::awaitFloorTurn(std::uint64_t ticket) {
   std::unique_lock<std::mutex> lock(mutex_);
-  changed_.wait(lock, [this, ticket] { return floor_turn_ >= ticket; });
+  floor_changed_.wait(lock, [this, ticket] { return floor_turn_ >= ticket; });
 }
 
 void CloudPipeline::endFloorTurn(std::uint64_t ticket) {
   std::unique_lock<std::mutex> lock(mutex_);
-  changed_.wait(lock, [this, ticket] { return floor_turn_ >= ticket; });
+  floor_changed_.wait(lock, [this, ticket] { return floor_turn_ >= ticket; });
   floor_turn_ = ticket + 1;
-  changed_.notify_all();
+  floor_changed_.notify_all();  // only the workers waiting for a turn
 }
 
 void CloudPipeline::apply(Ready& ready) {
