@@ -205,10 +205,23 @@ FloorView FloorLayer::observe(const Eigen::Vector3d& sensor, const std::vector<E
     // Columns the frame saw something else in (a wall, a step, a table's legs) and no floor was
     // ever seen under: the plane's height there, until a floor is seen (weight 0). Their slice
     // band then follows the floor around them, not the floor under the sensor.
+    // Most columns are known after a few frames: the last tile looked up answers most samples
+    // (they come in runs of neighbours) without a search of the tiles.
+    constexpr int kMask = FloorView::kTileSize - 1;
+    std::uint32_t last_id = ~std::uint32_t{0};
+    const Tile* last = nullptr;
     for (const Eigen::Vector3d& p : samples) {
       const int kx = floorKeyOf(p.x(), resolution_), ky = floorKeyOf(p.y(), resolution_);
       if (kx < 0 || ky < 0) continue;
+      const std::uint32_t id = tileId(kx >> FloorView::kTileBits, ky >> FloorView::kTileBits);
+      if (id != last_id) {
+        const auto it = tiles_.find(id);
+        last = it == tiles_.end() ? nullptr : it->second.get();
+        last_id = id;
+      }
+      if (last && !std::isnan(last->height[(ky & kMask) * FloorView::kTileSize + (kx & kMask)])) continue;
       setCell(kx, ky, plane.heightAt((kx - 32768 + 0.5) * resolution_, (ky - 32768 + 0.5) * resolution_), false);
+      last_id = ~std::uint32_t{0};  // the tile may be new, or a copy now
     }
     last_plane_ = plane;
     status_.source = FloorSource::kFound;
