@@ -100,3 +100,12 @@ TEST(BeamDirections, FollowTheScansGeometryExactly) {
   scan.ranges.clear();
   EXPECT_TRUE(directions.of(scan).empty());
 }
+
+TEST(ReadingCounts, FlyingPixelsAreSkippedReadings) {
+  ReadingCounts c;
+  c[ReadingKind::kHit] = 5;
+  c[ReadingKind::kFlyingPixel] = 2;
+  c[ReadingKind::kNaN] = 1;
+  EXPECT_EQ(c.skipped(), 3u);
+  EXPECT_NE(c.summary().find("flying_pixel=2"), std::string::npos);
+}

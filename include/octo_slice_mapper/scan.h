@@ -65,7 +65,7 @@ struct ReadingCounts {
   std::uint64_t count[kReadingKindCount] = {};
   std::uint64_t& operator[](ReadingKind k) { return count[static_cast<int>(k)]; }
   std::uint64_t operator[](ReadingKind k) const { return count[static_cast<int>(k)]; }
-  std::uint64_t skipped() const;
+  std::uint64_t skipped() const;  // readings left out: all but hits and no-returns
   ReadingCounts& operator+=(const ReadingCounts& other);
   std::string summary() const;  // "hit=.. no_return=.. nan=.." for logs
 };

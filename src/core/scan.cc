@@ -31,7 +31,7 @@ ReadingKind classifyReading(float range, float range_min, float range_max, const
 }
 
 std::uint64_t ReadingCounts::skipped() const {
-  return count[2] + count[3] + count[4] + count[5];
+  return count[2] + count[3] + count[4] + count[5] + count[6];  // all but hits and no-returns
 }
 
 ReadingCounts& ReadingCounts::operator+=(const ReadingCounts& other) {

@@ -39,6 +39,14 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   osm::ros_adapter::cloudPointsInMap(msg, to_map, &points, &left_out);
   // Every point either converted (finite) or counted.
   if (points.size() + left_out.skipped() != std::uint64_t(msg.width) * msg.height) __builtin_trap();
+  // The same with the flying-pixel filter, which streams the frame's rows: again every point
+  // converted or counted, and never more points than without it.
+  std::vector<Eigen::Vector3f> kept;
+  osm::ReadingCounts kept_left_out;
+  const osm::FlyingPixelOptions flying;
+  osm::ros_adapter::cloudPointsInMap(msg, to_map, &kept, &kept_left_out, &flying);
+  if (kept.size() + kept_left_out.skipped() != std::uint64_t(msg.width) * msg.height) __builtin_trap();
+  if (kept.size() > points.size()) __builtin_trap();
   octomap::OcTree tree(0.1);
   osm::InsertOptions insert;
   insert.max_range = 20.0;  // bounded work per input
