@@ -83,13 +83,15 @@ class SliceGrid {
   // Number of cells that are not unknown.
   std::size_t knownCells() const;
   // Bytes of the grid, including the unknown margin it keeps to grow into.
-  std::size_t memoryBytes() const { return data_.capacity() * sizeof(std::int8_t) + sizeof(*this); }
+  std::size_t memoryBytes() const {
+    return (data_.capacity() + shift_grid_.capacity()) * sizeof(std::int8_t) + sizeof(*this);
+  }
 
  private:
   void ensureCovers(std::uint16_t kx0, std::uint16_t ky0, std::uint16_t kx1, std::uint16_t ky1);
   // Reads band_layers_, which findBandLayers() sets before each batch of columns.
   std::int8_t columnValue(std::uint16_t kx, std::uint16_t ky) const;
-  // A shifted column's value: each of its band's voxels looked up alone (cache, then tree).
+  // A shifted column's value, columnValue's rule over its own band (the cache's layers, else the tree).
   std::int8_t shiftedColumnValue(std::uint16_t kx, std::uint16_t ky, int shift) const;
   // Whether z keys [lo, hi] meet some column's band.
   bool meetsBands(unsigned lo, unsigned hi) const {

@@ -112,10 +112,10 @@ inline Eigen::Vector3f* transformOne(const Eigen::Vector3f& v, const Eigen::Matr
   return out;
 }
 
-// The finite points of rows [0, msg.height) read with `read(point_bytes)`, in the map frame, in
-// order from `out` on; the others counted. Returns the end of the points written.
-// Rows [row0, row1). Points flagged in `skip` (one byte per point of row row0, for a single
-// row; null: none) are left out uncounted.
+// The finite points of rows [row0, row1) read with `read(point_bytes)`, in the map frame, in
+// order from `out` on; the others counted. Returns the end of the points written. With `skip`
+// (one byte per point of a single row: row1 = row0 + 1), the flagged points are left out
+// uncounted (the caller counts them).
 template <typename Read>
 Eigen::Vector3f* transformPoints(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry3f& to_map, Read read,
                                  Eigen::Vector3f* out, ReadingCounts* left_out, std::uint32_t row0, std::uint32_t row1,
@@ -141,7 +141,7 @@ Eigen::Vector3f* transformPoints(const sensor_msgs::PointCloud2& msg, const Eige
 // multiply-add), so the same floats
 // (PointCloudConversion.PointsAreTheRotationAndTranslationToTheBit). Eigen's product of one point
 // took ~33 instructions, a third of them shuffles.
-// Rows [row0, row1); `skip` as transformPoints'.
+// Rows [row0, row1) and `skip` as transformPoints'.
 Eigen::Vector3f* transformXyzIn16Bytes(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry3f& to_map,
                                        Eigen::Vector3f* out, ReadingCounts* left_out, std::uint32_t row0,
                                        std::uint32_t row1, const std::uint8_t* skip) {
