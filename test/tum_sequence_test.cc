@@ -12,6 +12,10 @@
 #include <string>
 #include <vector>
 
+#include "core/internal/map_evaluation.h"
+#include "octo_slice_mapper/mapper.h"
+#include "test_helpers.h"
+
 namespace octo_slice_mapper {
 namespace tools {
 namespace {
@@ -121,3 +125,49 @@ TEST_F(TumSequenceTest, DepthTxtTakesTheNearestGroundTruthPose) {
 }  // namespace
 }  // namespace tools
 }  // namespace octo_slice_mapper
+
+// A real Kinect's frames (the shared fr3 cabinet sequence, every other frame): the floor is found
+// at the recorded z = 0 (its returns lie between -0.10 and +0.05 m) and, with the world moved
+// 1.5 m down as a hand-held camera's frame has it, 1.5 m lower; the navigation slices of the two
+// agree cell for cell within one cell.
+TEST(TumSequence, ARealFloorIsFoundWhereverTheFixedFrameHasIt) {
+  using namespace octo_slice_mapper;
+  std::vector<tools::DepthFrame> sequence;
+  std::string error;
+  ASSERT_TRUE(tools::readTumSequence(test_support::sharedDataDir() + "/tum_fr3_cabinet", &sequence, &error))
+      << error << " (set OSM_DATA_DIR)";
+  const auto mapped = [&](double lower, FloorStatus* floor) {
+    MapperOptions options;
+    options.keep_scans = false;
+    options.slice.min_z = 0.05;
+    options.slice.max_z = 0.80;
+    Mapper mapper(options);
+    const Eigen::Isometry3d world(Eigen::Translation3d(0.0, 0.0, -lower));
+    for (std::size_t i = 0; i < sequence.size(); i += 2) {
+      int width = 0, height = 0;
+      std::vector<std::uint16_t> pixels;
+      EXPECT_TRUE(tools::readDepthPng(sequence[i].image, &width, &height, &pixels, &error)) << error;
+      const Eigen::Isometry3d pose = world * sequence[i].pose;
+      std::vector<Eigen::Vector3f> points;
+      for (const Eigen::Vector3f& p : tools::depthPoints(width, height, pixels, tools::DepthIntrinsics::freiburg3())) {
+        if (p.allFinite()) points.push_back((pose * p.cast<double>()).cast<float>());
+      }
+      EXPECT_TRUE(mapper.insertPoints(pose.translation(), points).ok());
+    }
+    *floor = mapper.floor().status();
+    return gridImageOf(mapper.slice());
+  };
+  FloorStatus recorded_floor, lowered_floor;
+  const GridImage recorded = mapped(0.0, &recorded_floor);
+  const GridImage lowered = mapped(1.5, &lowered_floor);
+  EXPECT_EQ(recorded_floor.frames_found, 29u);
+  EXPECT_NEAR(recorded_floor.height, 0.0, 0.08);
+  EXPECT_NEAR(lowered_floor.height, recorded_floor.height - 1.5, 0.01);
+  const OccupancyScore score = scoreOccupancy(lowered, recorded, 1);
+  EXPECT_GT(recorded_floor.cells, 10000u);
+  EXPECT_GT(score.map_occupied, 500u);
+  EXPECT_GT(score.precision, 0.97);
+  EXPECT_GT(score.recall, 0.97);
+  std::printf("fr3 cabinet, floor 1.5 m down against as recorded: %zu occupied cells, precision %.3f, recall %.3f\n",
+              score.map_occupied, score.precision, score.recall);
+}
