@@ -22,7 +22,7 @@ double FloorView::heightAt(double x, double y) const {
     const int tx = (kx >> kTileBits) - tx0_, ty = (ky >> kTileBits) - ty0_;
     if (kx >= 0 && ky >= 0 && tx >= 0 && ty >= 0 && tx < tiles_x_ && ty < tiles_y_) {
       if (const Tile* tile = tiles_[std::size_t(ty) * tiles_x_ + tx].get()) {
-        const float h = tile->height[(ky & (kTileSize - 1)) * kTileSize + (kx & (kTileSize - 1))];
+        const float h = tile->height[indexInTile(kx, ky)];
         if (!std::isnan(h)) return h;
       }
     }
@@ -94,8 +94,7 @@ FloorLayer::Tile& FloorLayer::writableTile(int tx, int ty) {
 }
 
 void FloorLayer::setCell(int kx, int ky, double measured, bool seen) {
-  constexpr int kMask = FloorView::kTileSize - 1;
-  const int i = (ky & kMask) * FloorView::kTileSize + (kx & kMask);
+  const int i = FloorView::indexInTile(kx, ky);
   if (!seen) {  // only where nothing is known yet
     const auto it = tiles_.find(tileId(kx >> FloorView::kTileBits, ky >> FloorView::kTileBits));
     if (it != tiles_.end() && !std::isnan(it->second->height[i])) return;
@@ -123,13 +122,11 @@ void FloorLayer::setCell(int kx, int ky, double measured, bool seen) {
 }
 
 void FloorLayer::relevel() {
-  constexpr int kMask = FloorView::kTileSize - 1;
   for (const auto& [id, tile] : tiles_) {
-    const int tx = int(id & 0xffff), ty = int(id >> 16);
     for (int i = 0; i < FloorView::kTileSize * FloorView::kTileSize; ++i) {
       if (std::isnan(tile->height[i])) continue;
-      const int kx = (tx << FloorView::kTileBits) | (i & kMask), ky = (ty << FloorView::kTileBits) | (i >> FloorView::kTileBits);
-      pending_.cells.emplace_back(std::uint32_t(kx) | std::uint32_t(ky) << 16, levelOf(tile->height[i]));
+      pending_.cells.emplace_back(std::uint32_t(keyXOf(id, i)) | std::uint32_t(keyYOf(id, i)) << 16,
+                                  levelOf(tile->height[i]));
     }
   }
 }
@@ -139,8 +136,7 @@ double FloorLayer::knownHeightAt(double x, double y, double otherwise) const {
   if (kx < 0 || ky < 0) return otherwise;
   const auto it = tiles_.find(tileId(kx >> FloorView::kTileBits, ky >> FloorView::kTileBits));
   if (it == tiles_.end()) return otherwise;
-  constexpr int kMask = FloorView::kTileSize - 1;
-  const float h = it->second->height[(ky & kMask) * FloorView::kTileSize + (kx & kMask)];
+  const float h = it->second->height[FloorView::indexInTile(kx, ky)];
   return std::isnan(h) ? otherwise : h;
 }
 
@@ -162,15 +158,12 @@ FloorView FloorLayer::observe(const Eigen::Vector3d& sensor, const std::vector<E
     const double height = plane.heightAt(sensor.x(), sensor.y());
     // A floor found well below the one known: what was taken for the floor was a table or a bed.
     if (fallback_found_ && height < fallback_height_ - options_.fit.seed_window) {
-      constexpr int kMask = FloorView::kTileSize - 1;
       for (auto& [id, shared] : tiles_) {
-        const int tx = int(id & 0xffff), ty = int(id >> 16);
         for (int i = 0; i < FloorView::kTileSize * FloorView::kTileSize; ++i) {
           if (std::isnan(shared->height[i])) continue;
-          const int kx = (tx << FloorView::kTileBits) | (i & kMask), ky = (ty << FloorView::kTileBits) | (i >> FloorView::kTileBits);
-          const double x = (kx - 32768 + 0.5) * resolution_, y = (ky - 32768 + 0.5) * resolution_;
-          if (shared->height[i] <= plane.heightAt(x, y) + options_.fit.seed_window) continue;
-          Tile& tile = writableTile(tx, ty);
+          const int kx = keyXOf(id, i), ky = keyYOf(id, i);
+          if (shared->height[i] <= heightAtCell(plane, kx, ky) + options_.fit.seed_window) continue;
+          Tile& tile = writableTile(kx >> FloorView::kTileBits, ky >> FloorView::kTileBits);
           tile.height[i] = std::numeric_limits<float>::quiet_NaN();
           tile.weight[i] = 0;
           status_.cells--;
@@ -200,14 +193,13 @@ FloorView FloorLayer::observe(const Eigen::Vector3d& sensor, const std::vector<E
     cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
     for (std::uint32_t c : cells) {
       const int kx = int(c & 0xffff), ky = int(c >> 16);
-      setCell(kx, ky, plane.heightAt((kx - 32768 + 0.5) * resolution_, (ky - 32768 + 0.5) * resolution_), true);
+      setCell(kx, ky, heightAtCell(plane, kx, ky), true);
     }
     // Columns the frame saw something else in (a wall, a step, a table's legs) and no floor was
     // ever seen under: the plane's height there, until a floor is seen (weight 0). Their slice
     // band then follows the floor around them, not the floor under the sensor.
     // Most columns are known after a few frames: the last tile looked up answers most samples
     // (they come in runs of neighbours) without a search of the tiles.
-    constexpr int kMask = FloorView::kTileSize - 1;
     std::uint32_t last_id = ~std::uint32_t{0};
     const Tile* last = nullptr;
     for (const Eigen::Vector3d& p : samples) {
@@ -219,8 +211,8 @@ FloorView FloorLayer::observe(const Eigen::Vector3d& sensor, const std::vector<E
         last = it == tiles_.end() ? nullptr : it->second.get();
         last_id = id;
       }
-      if (last && !std::isnan(last->height[(ky & kMask) * FloorView::kTileSize + (kx & kMask)])) continue;
-      setCell(kx, ky, plane.heightAt((kx - 32768 + 0.5) * resolution_, (ky - 32768 + 0.5) * resolution_), false);
+      if (last && !std::isnan(last->height[FloorView::indexInTile(kx, ky)])) continue;
+      setCell(kx, ky, heightAtCell(plane, kx, ky), false);
       last_id = ~std::uint32_t{0};  // the tile may be new, or a copy now
     }
     last_plane_ = plane;
@@ -260,13 +252,9 @@ FloorView FloorLayer::observe(const Eigen::Vector3d& sensor, const std::vector<E
 
 void FloorLayer::forEachCell(const std::function<void(std::uint16_t, std::uint16_t, float)>& fn) const {
   std::lock_guard<std::mutex> lock(mutex_);
-  constexpr int kMask = FloorView::kTileSize - 1;
   for (const auto& [id, tile] : tiles_) {
-    const int tx = int(id & 0xffff), ty = int(id >> 16);
     for (int i = 0; i < FloorView::kTileSize * FloorView::kTileSize; ++i) {
-      if (std::isnan(tile->height[i])) continue;
-      fn(std::uint16_t((tx << FloorView::kTileBits) | (i & kMask)), std::uint16_t((ty << FloorView::kTileBits) | (i >> FloorView::kTileBits)),
-         tile->height[i]);
+      if (!std::isnan(tile->height[i])) fn(std::uint16_t(keyXOf(id, i)), std::uint16_t(keyYOf(id, i)), tile->height[i]);
     }
   }
 }

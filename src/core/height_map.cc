@@ -27,7 +27,7 @@ void fillHeights(const std::vector<OccupiedVoxel>& voxels, const FloorLayer& flo
   };
   floor.forEachCell([&](std::uint16_t kx, std::uint16_t ky, float h) {
     std::size_t index;
-    if (cellOf((kx - 32768 + 0.5) * resolution, (ky - 32768 + 0.5) * resolution, &index)) map->floor[index] = h;
+    if (cellOf(floorCentreOf(kx, resolution), floorCentreOf(ky, resolution), &index)) map->floor[index] = h;
   });
   const float fallback = static_cast<float>(floor.fallbackHeight());
   for (const OccupiedVoxel& v : voxels) {

@@ -52,11 +52,13 @@ struct FloorStatus {
   std::size_t cells = 0;  // cells whose floor is known
 };
 
-// A cell's key coordinate (OctoMap's, for a tree of depth 16) along one axis.
+// A cell's key coordinate (OctoMap's, for a tree of depth 16) along one axis, -1 outside; and the
+// coordinate of a key's cell centre.
 inline int floorKeyOf(double coordinate, double resolution) {
   const double k = std::floor(coordinate / resolution) + 32768.0;
   return k < 0.0 ? -1 : k > 65535.0 ? -1 : static_cast<int>(k);
 }
+inline double floorCentreOf(int key, double resolution) { return (key - 32768 + 0.5) * resolution; }
 
 // The floor one frame is measured against, taken when the frame's own floor was folded in:
 // frames prepared in parallel each see the layer as of their own turn.
@@ -68,6 +70,8 @@ class FloorView {
     float height[kTileSize * kTileSize];  // NaN: not known
     std::uint8_t weight[kTileSize * kTileSize];
   };
+  // Where the cell of keys (kx, ky) lies in its tile.
+  static int indexInTile(int kx, int ky) { return (ky & (kTileSize - 1)) * kTileSize + (kx & (kTileSize - 1)); }
 
   // The fixed frame's z = 0 everywhere.
   FloorView() = default;
@@ -122,6 +126,13 @@ class FloorLayer {
  private:
   using Tile = FloorView::Tile;
   static std::uint32_t tileId(int tx, int ty) { return std::uint32_t(tx) | std::uint32_t(ty) << 16; }
+  // The keys of cell i of tile `id`.
+  static int keyXOf(std::uint32_t id, int i) { return int(id & 0xffff) << FloorView::kTileBits | (i & (FloorView::kTileSize - 1)); }
+  static int keyYOf(std::uint32_t id, int i) { return int(id >> 16) << FloorView::kTileBits | (i >> FloorView::kTileBits); }
+  // The plane's height at a cell's centre.
+  double heightAtCell(const BoundedPlane& plane, int kx, int ky) const {
+    return plane.heightAt(floorCentreOf(kx, resolution_), floorCentreOf(ky, resolution_));
+  }
   Tile& writableTile(int tx, int ty);
   // A floor measured in the cell (`seen`), or the frame's plane extrapolated to a cell that has none.
   void setCell(int kx, int ky, double height, bool seen);
