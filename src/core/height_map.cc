@@ -1,6 +1,6 @@
 #include "octo_slice_mapper/internal/height_map.h"
 
-#include <png.h>
+#include "core/internal/rgb_png.h"
 
 #include <algorithm>
 #include <cmath>
@@ -85,9 +85,10 @@ const unsigned char* glyph(char c) {
   return space;
 }
 
-struct Rgb {
-  png_byte r, g, b;
+struct Rgb {  // three bytes, as a PNG row holds them
+  std::uint8_t r, g, b;
 };
+static_assert(sizeof(Rgb) == 3, "rows are copied as they are");
 
 // Dark blue (low) through green and yellow to red (2 m and above).
 Rgb colourOf(double t) {
@@ -96,12 +97,8 @@ Rgb colourOf(double t) {
   const double x = t * 4.0;
   const int k = std::min(3, int(x));
   const double f = x - k;
-  const auto mix = [&](int c) { return static_cast<png_byte>(std::lround(stops[k][c] * (1 - f) + stops[k + 1][c] * f)); };
+  const auto mix = [&](int c) { return static_cast<std::uint8_t>(std::lround(stops[k][c] * (1 - f) + stops[k + 1][c] * f)); };
   return {mix(0), mix(1), mix(2)};
-}
-
-void pngToString(png_structp png, png_bytep data, png_size_t length) {
-  static_cast<std::string*>(png_get_io_ptr(png))->append(reinterpret_cast<const char*>(data), length);
 }
 
 }  // namespace
@@ -176,26 +173,14 @@ bool addHeightMap(const HeightMap& map, const std::string& prefix, FileSet* file
     text(x - 3, y0 + 18, label);
   }
 
-  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
-  png_infop info = png ? png_create_info_struct(png) : nullptr;
-  if (!png || !info) {
-    png_destroy_write_struct(&png, &info);
-    *error = name + ".png: libpng could not start";
+  std::string bytes, reason;
+  const bool encoded = encodeRgbPng(width, height, [&](int y, std::uint8_t* row) {
+    std::memcpy(row, &image[std::size_t(y) * width], std::size_t(width) * sizeof(Rgb));
+  }, &bytes, &reason);
+  if (!encoded) {
+    *error = name + ".png: " + reason;
     return false;
   }
-  std::string bytes;
-  if (setjmp(png_jmpbuf(png))) {
-    png_destroy_write_struct(&png, &info);
-    *error = name + ".png: libpng failed";
-    return false;
-  }
-  png_set_write_fn(png, &bytes, pngToString, nullptr);
-  png_set_IHDR(png, info, width, height, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
-               PNG_FILTER_TYPE_DEFAULT);
-  png_write_info(png, info);
-  for (int y = 0; y < height; ++y) png_write_row(png, reinterpret_cast<png_bytep>(&image[std::size_t(y) * width]));
-  png_write_end(png, nullptr);
-  png_destroy_write_struct(&png, &info);
   files->emplace_back(name + ".png", std::move(bytes));
   return true;
 }

@@ -1,5 +1,6 @@
 #include "octo_slice_mapper/map_io.h"
 
+#include "core/internal/rgb_png.h"
 #include "octo_slice_mapper/internal/height_map.h"
 
 #include <pcl/PCLPointCloud2.h>
@@ -116,9 +117,6 @@ std::string dirName(const std::string& path) {
   return slash == std::string::npos ? "." : path.substr(0, slash);
 }
 
-void pngWriteToString(png_structp png, png_bytep data, png_size_t length) {
-  static_cast<std::string*>(png_get_io_ptr(png))->append(reinterpret_cast<const char*>(data), length);
-}
 
 }  // namespace
 
@@ -463,42 +461,27 @@ bool addPng(const GridImage& grid, const std::string& path, FileSet* files, std:
     *error = "the map is empty: nothing to draw into " + path;
     return false;
   }
-  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
-  png_infop info = png ? png_create_info_struct(png) : nullptr;
-  if (!png || !info) {
-    png_destroy_write_struct(&png, &info);
-    *error = "libpng could not start for " + path;
-    return false;
-  }
   // Whole pixels per cell, so that a small map is still readable.
   const int scale = std::max(1, (kMinPictureSide + std::max(grid.width, grid.height) - 1) / std::max(grid.width, grid.height));
   const int out_w = grid.width * scale, out_h = grid.height * scale;
-  std::string bytes;
-  std::vector<png_byte> row(std::size_t(out_w) * 3);
-  if (setjmp(png_jmpbuf(png))) {
-    png_destroy_write_struct(&png, &info);
-    *error = "libpng failed while encoding " + path;
-    return false;
-  }
-  png_set_write_fn(png, &bytes, pngWriteToString, nullptr);
-  png_set_IHDR(png, info, out_w, out_h, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
-               PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
-  png_write_info(png, info);
-  for (int j = grid.height - 1; j >= 0; --j) {  // north up
+  std::string bytes, reason;
+  const bool encoded = encodeRgbPng(out_w, out_h, [&](int y, std::uint8_t* row) {
+    const int j = grid.height - 1 - y / scale;  // north up
     for (int i = 0; i < out_w; ++i) {
       const int v = grid.at(i / scale, j);
-      png_byte* px = &row[std::size_t(i) * 3];
+      std::uint8_t* px = &row[std::size_t(i) * 3];
       if (v < 0) {
         px[0] = 196, px[1] = 204, px[2] = 216;
       } else {
-        const auto grey = static_cast<png_byte>(std::lround(255.0 * (1.0 - v / 100.0)));
+        const auto grey = static_cast<std::uint8_t>(std::lround(255.0 * (1.0 - v / 100.0)));
         px[0] = px[1] = px[2] = grey;
       }
     }
-    for (int k = 0; k < scale; ++k) png_write_row(png, row.data());
+  }, &bytes, &reason);
+  if (!encoded) {
+    *error = reason + " while encoding " + path;
+    return false;
   }
-  png_write_end(png, nullptr);
-  png_destroy_write_struct(&png, &info);
   files->emplace_back(path, std::move(bytes));
   return true;
 }
