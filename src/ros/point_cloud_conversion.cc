@@ -225,8 +225,8 @@ void cloudPointsInMap(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry
   points->resize(std::size_t(msg.width) * msg.height);
   const bool all_float = fx.datatype == sensor_msgs::PointField::FLOAT32 &&
                          fy.datatype == sensor_msgs::PointField::FLOAT32 && fz.datatype == sensor_msgs::PointField::FLOAT32;
-  // The transform of rows [row0, row1), its points written from `out` on.
   const bool xyz16 = all_float && fx.offset == 0 && fy.offset == 4 && fz.offset == 8 && msg.point_step == 16;
+  // The transform of rows [row0, row1), its points written from `out` on.
   const auto transformRows = [&](std::uint32_t row0, std::uint32_t row1, const std::uint8_t* skip,
                                  Eigen::Vector3f* out) -> Eigen::Vector3f* {
 #if defined(__SSE2__)
