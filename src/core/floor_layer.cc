@@ -27,8 +27,7 @@ double FloorView::heightAt(double x, double y) const {
       }
     }
   }
-  if (plane_) return plane_->heightAt(x, y);
-  return fallback_;
+  return plane_ ? plane_->heightAt(x, y) : 0.0;
 }
 
 FloorLayer::FloorLayer(double resolution, const FloorOptions& options) : resolution_(resolution), options_(options) {}
@@ -228,7 +227,6 @@ FloorView FloorLayer::observe(const Eigen::Vector3d& sensor, const std::vector<E
 
   FloorView view;
   view.resolution_ = resolution_;
-  view.fallback_ = fallback_found_ ? fallback_height_ : 0.0;
   view.plane_ = last_plane_;  // this frame's, or the last one found
   if (!tiles_.empty() && reach > 0.0) {
     const double r = std::min(reach, 1000.0);

@@ -75,9 +75,9 @@ class FloorView {
 
   // The fixed frame's z = 0 everywhere.
   FloorView() = default;
-  // The floor under (x, y): the cell's where known, else the frame's own plane, else the fallback.
+  // The floor under (x, y): the cell's where known, else the plane of this frame or the last one
+  // found before it, else (no floor ever found) the fixed frame's z = 0.
   double heightAt(double x, double y) const;
-  const std::optional<BoundedPlane>& framePlane() const { return plane_; }
 
  private:
   friend class FloorLayer;
@@ -85,7 +85,6 @@ class FloorView {
   int tx0_ = 0, ty0_ = 0, tiles_x_ = 0, tiles_y_ = 0;
   std::vector<std::shared_ptr<const Tile>> tiles_;  // row-major over the rectangle; null: none known
   std::optional<BoundedPlane> plane_;
-  double fallback_ = 0.0;
 };
 
 // Thread-safe. observe() must be called in the order the frames go into the map (the cloud
