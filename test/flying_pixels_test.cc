@@ -2,7 +2,9 @@
 // structures and pixels without depth are not.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <limits>
+#include <random>
 
 #include "octo_slice_mapper/internal/flying_pixels.h"
 
@@ -69,4 +71,45 @@ TEST(FlyingPixels, OffOrNotOrganizedFlagsNothing) {
   EXPECT_EQ(flagFlyingPixels(frameOf(depth), kW, kH, off, &flags), 0u);
   EXPECT_TRUE(flags.empty());
   EXPECT_EQ(flagFlyingPixels(frameOf(depth), kW * kH, 1, {}, &flags), 0u);  // an unorganized cloud
+}
+
+// The row judge (four pixels at a time, the six other neighbours looked at only where the two in
+// the row do not already make min_neighbours) flags exactly what the rule says, pixel by pixel:
+// random ranges with depth edges, noise and holes, for one, two and three neighbours needed.
+TEST(FlyingPixels, TheRowJudgeFlagsExactlyWhatTheRuleSays) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  const int width = 71;  // not a multiple of four: the last pixels go one at a time
+  std::vector<float> rows(3 * width);
+  for (int trial = 0; trial < 300; ++trial) {
+    for (float& r : rows) {
+      const float x = unit(rng);
+      r = x < 0.05f ? kNaN : x < 0.5f ? 1.5f + 0.01f * unit(rng) : x < 0.8f ? 3.0f + 0.05f * unit(rng) : 0.5f + 4.0f * unit(rng);
+    }
+    FlyingPixelOptions options;
+    options.min_neighbours = 1 + trial % 3;
+    const float* up = rows.data();
+    const float* mid = up + width;
+    const float* down = mid + width;
+    std::vector<std::uint8_t> flags(width, 7);
+    const std::size_t count = flagFlyingRow(up, mid, down, width, options, flags.data());
+    std::size_t expected_count = 0;
+    for (int u = 0; u < width; ++u) {
+      bool flying = false;
+      if (u > 0 && u + 1 < width && !std::isnan(mid[u])) {
+        const float gap = float(options.gap_base) + float(options.gap_per_metre) * mid[u];
+        int close = 0;
+        for (const float* row : {up, mid, down}) {
+          for (int du = -1; du <= 1; ++du) {
+            if (row == mid && du == 0) continue;
+            close += std::abs(row[u + du] - mid[u]) <= gap;
+          }
+        }
+        flying = close < options.min_neighbours;
+      }
+      expected_count += flying;
+      ASSERT_EQ(flags[u], flying ? 1 : 0) << "trial " << trial << ", pixel " << u;
+    }
+    EXPECT_EQ(count, expected_count);
+  }
 }

@@ -124,9 +124,10 @@ Eigen::Vector3f* transformPoints(const sensor_msgs::PointCloud2& msg, const Eige
   const Eigen::Vector3f translation = to_map.translation();
   for (std::uint32_t row = row0; row < row1; ++row) {
     const std::uint8_t* p = msg.data.data() + std::size_t(row) * msg.row_step;
+    const std::uint8_t* row_skip = skip ? skip + std::size_t(row - row0) * msg.width : nullptr;
     for (std::uint32_t col = 0; col < msg.width; ++col, p += msg.point_step) {
       prefetchAhead(p);
-      if (skip && skip[col]) continue;
+      if (row_skip && row_skip[col]) continue;
       out = transformOne(read(p), rotation, translation, out, left_out);
     }
   }
@@ -161,7 +162,7 @@ Eigen::Vector3f* transformXyzIn16Bytes(const sensor_msgs::PointCloud2& msg, cons
   std::uint64_t nans = 0, non_finite = 0;  // in groups of four without a finite point
   for (std::uint32_t row = row0; row < row1; ++row) {
     const std::uint8_t* p = msg.data.data() + std::size_t(row) * msg.row_step;
-    const std::uint8_t* skipped = skip;
+    const std::uint8_t* skipped = skip ? skip + std::size_t(row - row0) * width : nullptr;
     std::uint32_t col = 0;
     for (; col + 4 <= width; col += 4, p += 64) {
       prefetchAhead(p);
@@ -259,25 +260,28 @@ void cloudPointsInMap(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry
   thread_local std::vector<float> rows;
   thread_local std::vector<std::uint8_t> flags;
   rows.resize(3 * std::size_t(width));
-  flags.resize(width);
+  flags.resize(std::size_t(width) * msg.height);
   const auto rangesOf = [&](std::uint32_t row, float* range) {
     const std::uint8_t* p = msg.data.data() + std::size_t(row) * msg.row_step;
     std::uint32_t col = 0;
 #if defined(__SSE2__)
     if (xyz16) {
       for (; col + 4 <= width; col += 4, p += 64) {  // four points at a time
+        prefetchAhead(p);
         const float* f = reinterpret_cast<const float*>(p);
         __m128 x = _mm_loadu_ps(f), y = _mm_loadu_ps(f + 4), z = _mm_loadu_ps(f + 8), w = _mm_loadu_ps(f + 12);
         _MM_TRANSPOSE4_PS(x, y, z, w);
-        _mm_storeu_ps(range + col, _mm_add_ps(_mm_add_ps(_mm_mul_ps(x, x), _mm_mul_ps(y, y)), _mm_mul_ps(z, z)));
+        const __m128 squared = _mm_add_ps(_mm_add_ps(_mm_mul_ps(x, x), _mm_mul_ps(y, y)), _mm_mul_ps(z, z));
+        _mm_storeu_ps(range + col, _mm_sqrt_ps(squared));  // correctly rounded, as std::sqrt
       }
     }
 #endif
+    const std::uint32_t rest = col;
     for (; col < width; ++col, p += msg.point_step) {
       const float x = coordinate(p, fx), y = coordinate(p, fy), z = coordinate(p, fz);
       range[col] = x * x + y * y + z * z;
     }
-    rangesFromSquares(range, width);
+    rangesFromSquares(range + rest, width - rest);
   };
   const auto slot = [&](std::uint32_t row) { return &rows[std::size_t(row % 3) * width]; };
   Eigen::Vector3f* end = points->data();
@@ -287,9 +291,9 @@ void cloudPointsInMap(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry
     if (row + 1 < msg.height) rangesOf(row + 1, slot(row + 1));
     const float* up = row > 0 ? slot(row - 1) : nullptr;
     const float* down = row + 1 < msg.height ? slot(row + 1) : nullptr;
-    flying_count += flagFlyingRow(up, slot(row), down, int(width), *flying, flags.data());
-    end = transformRows(row, row + 1, flags.data(), end);
+    flying_count += flagFlyingRow(up, slot(row), down, int(width), *flying, &flags[std::size_t(row) * width]);
   }
+  end = transformRows(0, msg.height, flags.data(), end);
   (*left_out)[ReadingKind::kFlyingPixel] += flying_count;
   points->resize(static_cast<std::size_t>(end - points->data()));
 }
