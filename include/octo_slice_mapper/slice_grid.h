@@ -103,6 +103,7 @@ class SliceGrid {
   // The voxel (kx, ky, kz) below `top`, the node at `top_depth` holding it.
   const octomap::OcTreeNode* bandVoxel(const octomap::OcTreeNode* top, std::uint16_t kx, std::uint16_t ky, unsigned kz,
                                        unsigned top_depth) const;
+  class ColumnDescent;
 
   // Recomputes the columns of `box` (x/y) from the layers noted so far.
   void recompute(const KeyBox& box);
@@ -117,7 +118,6 @@ class SliceGrid {
   SliceOptions options_;
   double resolution_;
   std::uint16_t band_lo_, band_hi_;
-  unsigned band_common_depth_;
   std::uint16_t origin_key_x_ = 0, origin_key_y_ = 0;
   int width_ = 0, height_ = 0;
   // The band layers that may hold known voxels, each with its cached layer or null (the tree

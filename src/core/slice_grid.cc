@@ -52,10 +52,6 @@ SliceGrid::SliceGrid(const octomap::OcTree& tree, const SliceOptions& options, c
   }
   band_lo_ = lo[2];
   band_hi_ = hi[2];
-  // Depth of the deepest node whose key range holds both band ends.
-  unsigned differing = band_lo_ ^ band_hi_, bits = 0;
-  while (differing) differing >>= 1, ++bits;
-  band_common_depth_ = tree.getTreeDepth() - bits;
   layer_may_be_known_.assign(band_hi_ - band_lo_ + 1, false);
 }
 
@@ -116,6 +112,53 @@ const octomap::OcTreeNode* SliceGrid::bandVoxel(const octomap::OcTreeNode* top, 
   return node;
 }
 
+namespace {
+unsigned bitLength(unsigned v) {
+  unsigned bits = 0;
+  while (v) v >>= 1, ++bits;
+  return bits;
+}
+}  // namespace
+
+// The deepest nodes holding a column's layers [lo, hi], each found when first needed: one, or
+// one per half where the layers straddle a boundary high in the tree (z = 0 is the root's own),
+// so that no layer is read from the root down.
+class SliceGrid::ColumnDescent {
+ public:
+  ColumnDescent(const SliceGrid& grid, std::uint16_t kx, std::uint16_t ky, unsigned lo, unsigned hi)
+      : grid_(grid), kx_(kx), ky_(ky) {
+    const unsigned bits = bitLength(lo ^ hi);
+    mid_ = bits == 0 ? hi + 1 : (hi >> (bits - 1)) << (bits - 1);  // the upper half's first key
+    parts_[0] = partOf(lo, std::min(hi, mid_ - 1));
+    parts_[1] = partOf(mid_, hi);
+  }
+  const octomap::OcTreeNode* voxel(unsigned kz) {
+    Part& part = parts_[kz < mid_ ? 0 : 1];
+    if (!part.searched) {
+      part.top = grid_.descendTo(kx_, ky_, std::uint16_t(part.lo), part.depth);
+      part.searched = true;
+    }
+    return part.top ? grid_.bandVoxel(part.top, kx_, ky_, kz, part.depth) : nullptr;
+  }
+
+ private:
+  struct Part {
+    unsigned lo = 0, depth = 0;
+    const octomap::OcTreeNode* top = nullptr;
+    bool searched = false;
+  };
+  Part partOf(unsigned lo, unsigned hi) const {
+    Part part;
+    part.lo = lo;
+    part.depth = grid_.tree_.getTreeDepth() - bitLength(lo ^ hi);  // the deepest node holding both ends
+    return part;
+  }
+  const SliceGrid& grid_;
+  std::uint16_t kx_, ky_;
+  unsigned mid_;
+  Part parts_[2];
+};
+
 void SliceGrid::findBandLayers() {
   band_layers_.clear();
   for (unsigned kz = band_lo_; kz <= band_hi_; ++kz) {
@@ -124,8 +167,8 @@ void SliceGrid::findBandLayers() {
   }
 }
 
-// One descent to the deepest node holding the whole band of this column, then a few levels down
-// per layer: 5 layers cost ~1.5 root-to-leaf walks instead of 5. Voxels of cached layers are read
+// One descent to the deepest node holding the whole band of this column (ColumnDescent), then a
+// few levels down per layer: 5 layers cost ~1.5 root-to-leaf walks instead of 5. Voxels of cached layers are read
 // from the cache (band_layers_, found once per update), which the tree may lag behind. Compared
 // as log-odds, one percent at the end (OccupancyPercent, a table: no exp()): it is monotonic in
 // them, and a tilted scan's columns have several known layers (two exp() per layer were a quarter
@@ -134,8 +177,7 @@ std::int8_t SliceGrid::columnValue(std::uint16_t kx, std::uint16_t ky) const {
   if (!shift_.empty()) {
     if (const int shift = columnShift(kx, ky)) return shiftedColumnValue(kx, ky, shift);
   }
-  const octomap::OcTreeNode* top = nullptr;
-  bool searched = false;  // the descent to `top` only when a layer needs the tree
+  ColumnDescent descent(*this, kx, ky, band_lo_, band_hi_);  // only when a layer needs the tree
   bool known = false;
   // Log-odds of the most and the least occupied known voxel.
   float most = -std::numeric_limits<float>::infinity(), least = std::numeric_limits<float>::infinity();
@@ -152,13 +194,7 @@ std::int8_t SliceGrid::columnValue(std::uint16_t kx, std::uint16_t ky) const {
     if (LayerCache::isKnown(cached)) {
       take(cached);
     } else if (LayerCache::isUnloaded(cached)) {  // the tree is current for it (a pruned leaf may hold the whole band)
-      if (!searched) {
-        top = descendTo(kx, ky, band_lo_, band_common_depth_);
-        searched = true;
-      }
-      if (const octomap::OcTreeNode* node = top ? bandVoxel(top, kx, ky, kz, band_common_depth_) : nullptr) {
-        take(node->getLogOdds());
-      }
+      if (const octomap::OcTreeNode* node = descent.voxel(kz)) take(node->getLogOdds());
     }
   }
   if (!known) return kUnknownCell;
@@ -174,22 +210,13 @@ std::int8_t SliceGrid::shiftedColumnValue(std::uint16_t kx, std::uint16_t ky, in
   float most = -std::numeric_limits<float>::infinity(), least = std::numeric_limits<float>::infinity();
   const unsigned cell = LayerCache::cellIndex(kx, ky);
   const int lo = std::max(0, int(band_lo_) + shift), hi = std::min(0xFFFF, int(band_hi_) + shift);
-  // As columnValue: one descent to the deepest node holding this column's band, a few levels per layer.
-  unsigned differing = unsigned(lo) ^ unsigned(hi), bits = 0;
-  while (differing) differing >>= 1, ++bits;
-  const unsigned common_depth = tree_.getTreeDepth() - bits;
-  const octomap::OcTreeNode* top = nullptr;
-  bool searched = false;
+  ColumnDescent descent(*this, kx, ky, unsigned(lo), unsigned(hi));  // as columnValue's
   for (int kz = lo; kz <= hi; ++kz) {
     const LayerCache::Layer* layer = cache_ ? cache_->findLayer(std::uint16_t(kz)) : nullptr;
     const LayerCache::Tile* tile = layer ? layer->tile(kx, ky) : nullptr;
     float value = tile ? tile->value[cell] : LayerCache::unloadedValue();
     if (LayerCache::isUnloaded(value)) {
-      if (!searched) {
-        top = descendTo(kx, ky, std::uint16_t(lo), common_depth);
-        searched = true;
-      }
-      const octomap::OcTreeNode* node = top ? bandVoxel(top, kx, ky, unsigned(kz), common_depth) : nullptr;
+      const octomap::OcTreeNode* node = descent.voxel(unsigned(kz));
       if (!node) continue;
       value = node->getLogOdds();
     }
