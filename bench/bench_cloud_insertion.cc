@@ -9,7 +9,7 @@
 // the room: up to 4.5 m). Each scene's frames (the camera moving 2 cm and turning 0.5 deg between
 // them) go, in order, into a fresh 0.05 m octree per method:
 //   ours: the node's path: PointCloud2 (organized, NaN where no depth) -> checked, converted to
-//         the map frame (toCoreCloud) -> Mapper::insert (full inverse model, one ray per
+//         the map frame with its flying pixels left out (toDeferredCloud, made) -> Mapper::insert (full inverse model, one ray per
 //         end voxel, shared free space walked about once: cloud_shared_free_run 16);
 //         "whole rays": the same with every ray walked whole (cloud_shared_free_run 0); "per
 //         point": that with one ray per point too (cloud_one_ray_per_voxel false);
@@ -115,6 +115,15 @@ double pipelinedMsPerFrame(const std::vector<Frame>& frames, const osm::MapperOp
     });
   }
   return ms / static_cast<double>(frames.size());
+}
+
+// A frame converted as the node converts it (toDeferredCloud, made on a pipeline's worker with
+// the flying-pixel filter), so that "ours" and the pipelined runs see the same points.
+void convert(const Frame& f, const osm::FlyingPixelOptions& flying, osm::SensorCloud* cloud) {
+  osm::DeferredCloud deferred;
+  const osm::ros_adapter::ScanRejection rejected = osm::ros_adapter::toDeferredCloud(f.msg, f.optical_in_map, &deferred);
+  if (rejected.rejected()) std::fprintf(stderr, "rejected: %s\n", rejected.message.c_str());
+  *cloud = deferred.made(flying);
 }
 
 // Whether two octrees have the same leaves (keys at the same depth) with the same log-odds.
@@ -253,8 +262,7 @@ int main(int argc, char** argv) {
     for (int r = 0; r < repeats; ++r) {
       const std::vector<double> run = timeFrames(frames, [&](const Frame& f) {
       const auto t0 = std::chrono::steady_clock::now();
-      const osm::ros_adapter::ScanRejection rejected = osm::ros_adapter::toCoreCloud(*f.msg, f.optical_in_map, &cloud);
-      if (rejected.rejected()) std::fprintf(stderr, "rejected: %s\n", rejected.message.c_str());
+      convert(f, options.insert.cloud_flying_pixels, &cloud);
       const auto t1 = std::chrono::steady_clock::now();
       mapper.insert(cloud);
       conversion_ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
@@ -319,14 +327,14 @@ int main(int argc, char** argv) {
     whole_options.insert.cloud_shared_free_run = 0;
     osm::Mapper whole(whole_options);
     const std::vector<double> walked = ours_only ? std::vector<double>{0.0} : timeFrames(frames, [&](const Frame& f) {
-      osm::ros_adapter::toCoreCloud(*f.msg, f.optical_in_map, &cloud);
+      convert(f, options.insert.cloud_flying_pixels, &cloud);
       whole.insert(cloud);
     });
     osm::MapperOptions per_point_options = whole_options;
     per_point_options.insert.cloud_one_ray_per_voxel = false;
     osm::Mapper per_point(per_point_options);
     const std::vector<double> each = ours_only ? std::vector<double>{0.0} : timeFrames(frames, [&](const Frame& f) {
-      osm::ros_adapter::toCoreCloud(*f.msg, f.optical_in_map, &cloud);
+      convert(f, options.insert.cloud_flying_pixels, &cloud);
       per_point.insert(cloud);
     });
     Agreement vs_per_point, vs_whole;
