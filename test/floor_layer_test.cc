@@ -2,8 +2,10 @@
 // refuses (a table top above a known floor), and the view a frame is measured against.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
+#include <tuple>
 
 #include "octo_slice_mapper/internal/floor_layer.h"
 
@@ -58,10 +60,60 @@ TEST(FloorLayer, AFloorFoundIsKeptPerCellAndByFramesThatSeeNone) {
   EXPECT_EQ(changes.cells.front().second, -30);
   EXPECT_TRUE(layer.takeLevelChanges().cells.empty());  // taken once
 
-  const FloorView next = layer.observe(Eigen::Vector3d(0.0, 1.0, 0.0), {}, 10.0);
+  // Frames are measured against the layer kLag frames before them: the next one (which a
+  // pipeline may prepare at the same time) does not see the floor yet, the kLag-th does.
+  FloorView next;
+  for (std::uint64_t k = 1; k <= FloorLayer::kLag; ++k) {
+    next = layer.observe(Eigen::Vector3d(0.0, 1.0, 0.0), {}, 10.0);
+    if (k < FloorLayer::kLag) EXPECT_EQ(next.heightAt(1.0, 1.0), 0.0) << "frame " << k;
+  }
   EXPECT_EQ(layer.status().source, FloorSource::kKept);
   EXPECT_NEAR(next.heightAt(1.0, 1.0), -1.5, 0.01);
   EXPECT_NEAR(next.heightAt(8.0, 1.0), -1.5, 0.01);  // beyond the cells: the last plane, level there
+}
+
+// Frames prepared in parallel reach the layer in any order: the layer and the views are those of
+// the frames one after another.
+TEST(FloorLayer, FramesObservedOutOfTurnGiveTheLayerAndViewsOfTheirTurns) {
+  std::vector<std::vector<Eigen::Vector3d>> frames = {floorFrame(0.0), floorFrame(0.02, 1.0, 3.0), {},
+                                                      floorFrame(0.01, 2.0, 4.0), floorFrame(0.03, 0.0, 4.0)};
+  std::vector<Eigen::Vector3d> table;
+  addSurface(&table, 0.5, 2.0, 0.0, 2.0, 0.72);
+  frames.insert(frames.begin() + 2, table);
+  const auto sensorOf = [](std::size_t k) { return Eigen::Vector3d(0.4 * k, 1.0, 1.2); };
+  const auto heights = [](const FloorView& view) {
+    std::vector<double> h;
+    for (double x = -0.5; x < 5.0; x += 0.05) h.push_back(view.heightAt(x, 1.02));
+    return h;
+  };
+  const auto cells = [](const FloorLayer& layer) {
+    std::vector<std::tuple<int, int, float>> all;
+    layer.forEachCell([&](std::uint16_t x, std::uint16_t y, float h) { all.emplace_back(x, y, h); });
+    std::sort(all.begin(), all.end());
+    return all;
+  };
+  FloorLayer in_turn(kResolution, {});
+  std::vector<std::vector<double>> expected;
+  for (std::size_t k = 0; k < frames.size(); ++k) expected.push_back(heights(in_turn.observe(sensorOf(k), frames[k], 10.0)));
+
+  // Each frame after the one after it (1, 0, 3, 2, ...), the last number passed.
+  FloorLayer swapped(kResolution, {});
+  std::vector<std::uint64_t> numbers;
+  for (std::size_t k = 0; k <= frames.size(); ++k) numbers.push_back(swapped.take());
+  for (std::size_t k = 0; k < frames.size(); k += 2) {
+    if (k + 1 < frames.size()) {
+      EXPECT_EQ(heights(swapped.observe(numbers[k + 1], sensorOf(k + 1), frames[k + 1], 10.0)), expected[k + 1]) << k + 1;
+    }
+    EXPECT_EQ(heights(swapped.observe(numbers[k], sensorOf(k), frames[k], 10.0)), expected[k]) << k;
+  }
+  swapped.pass(numbers.back());
+  swapped.pass(numbers.front());  // observed: nothing
+  EXPECT_EQ(cells(swapped), cells(in_turn));
+  EXPECT_EQ(swapped.status().frames_found, in_turn.status().frames_found);
+  EXPECT_EQ(swapped.status().frames_without, in_turn.status().frames_without);
+  // A frame after the passed one is not held up by it.
+  swapped.observe(Eigen::Vector3d(0.0, 1.0, 1.2), {}, 10.0);
+  EXPECT_EQ(swapped.status().frames_without, in_turn.status().frames_without + 1);
 }
 
 TEST(FloorLayer, ATableTopAboveAKnownFloorIsNotTheFloor) {
@@ -69,9 +121,17 @@ TEST(FloorLayer, ATableTopAboveAKnownFloorIsNotTheFloor) {
   layer.observe(Eigen::Vector3d(0.0, 1.0, 1.2), floorFrame(0.0), 10.0);
   std::vector<Eigen::Vector3d> table;
   addSurface(&table, 0.5, 2.0, 0.0, 2.0, 0.72);
+  for (std::uint64_t k = 1; k < FloorLayer::kLag; ++k) layer.observe(Eigen::Vector3d(0.0, 1.0, 1.2), {}, 10.0);
   const FloorView view = layer.observe(Eigen::Vector3d(0.0, 1.0, 1.2), table, 10.0);
   EXPECT_EQ(layer.status().source, FloorSource::kKept);
   EXPECT_NEAR(view.heightAt(1.0, 1.0), 0.0, 0.01);
+  // Seen by the frame just after the floor's, the table is not the floor either: it is measured
+  // against the layer before the floor, but folded in after it.
+  FloorLayer next(kResolution, {});
+  next.observe(Eigen::Vector3d(0.0, 1.0, 1.2), floorFrame(0.0), 10.0);
+  next.observe(Eigen::Vector3d(0.0, 1.0, 1.2), table, 10.0);
+  EXPECT_EQ(next.status().source, FloorSource::kKept);
+  EXPECT_EQ(next.status().frames_found, 1u);
   // A step of a few centimetres up (a ramp's next frame) is floor.
   layer.observe(Eigen::Vector3d(1.0, 1.0, 1.2), floorFrame(0.04, 1.0, 3.0), 10.0);
   EXPECT_EQ(layer.status().source, FloorSource::kFound);
@@ -102,7 +162,9 @@ TEST(FloorLayer, AViewKeepsTheFloorAsOfItsFrame) {
   layer.setOptions(options);
   layer.observe(Eigen::Vector3d(0.0, 1.0, 1.0), floorFrame(0.06), 10.0);  // the same cells, 6 cm up
   EXPECT_NEAR(before.heightAt(1.0, 1.0), 0.0, 0.01);
-  const FloorView after = layer.observe(Eigen::Vector3d(0.0, 1.0, 1.0), {}, 10.0);
+  FloorView after;
+  for (std::uint64_t k = 0; k < FloorLayer::kLag; ++k) after = layer.observe(Eigen::Vector3d(0.0, 1.0, 1.0), {}, 10.0);
+  EXPECT_NEAR(before.heightAt(1.0, 1.0), 0.0, 0.01);
   EXPECT_NEAR(after.heightAt(1.0, 1.0), 0.03, 0.01);  // the mean of the two frames
 }
 

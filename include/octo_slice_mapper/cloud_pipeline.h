@@ -67,6 +67,7 @@ class CloudPipeline {
     std::uint64_t ticket;
     std::variant<SensorCloud, Scan, DeferredCloud> input;  // a DeferredCloud is a SensorCloud once prepared
     Done done;
+    std::optional<std::uint64_t> floor_frame;  // a cloud's number at the floor layer, taken in submission order
   };
   // A job ready to be applied: a cloud's prepared updates (with the preparer's map generation).
   struct Ready {
@@ -80,10 +81,6 @@ class CloudPipeline {
   void submitJob(std::variant<SensorCloud, Scan, DeferredCloud> input, Done done);
   void work(std::size_t worker);
   Ready prepare(Job job, std::unique_ptr<CloudPreparer>* preparer);
-  // The floor layer takes frames in submission order (floor_layer.h): a frame's floor is asked
-  // for once every job before it had its turn; a job ends its turn when its preparation ends.
-  void awaitFloorTurn(std::uint64_t ticket);
-  void endFloorTurn(std::uint64_t ticket);
   void apply(Ready& ready);
   // Whether a worker can apply now: no one does and the next job in turn is ready.
   bool canApply() const { return !applying_ && !ready_.empty() && ready_.begin()->first == next_applied_; }
@@ -97,8 +94,6 @@ class CloudPipeline {
   bool applying_ = false;
   std::uint64_t next_ticket_ = 0;   // the next submit()'s
   std::uint64_t next_applied_ = 0;  // the ticket whose turn it is to be applied
-  std::uint64_t floor_turn_ = 0;    // the ticket whose turn it is at the floor layer
-  std::condition_variable floor_changed_;  // floor_turn_ moved
   bool stopping_ = false;
   std::unique_ptr<std::atomic<std::size_t>[]> preparer_bytes_;  // per worker, written by it
   std::vector<std::thread> workers_;

@@ -74,11 +74,14 @@ struct MapperStats {
 // (Mapper::cloudPreparer); Mapper::insertPrepared applies the result.
 class CloudPreparer {
  public:
-  // `floor`: Mapper::floorStage(), or none for the floor at the fixed frame's z = 0.
-  CloudPreparer(double resolution, const InsertOptions& options, std::uint64_t map_generation, FloorStage floor = {});
-  // `await_turn`, when given, is called just before the frame's floor is asked for and returns
-  // when the frames before it have had theirs (a pipeline preparing frames in parallel).
-  PreparedCloud prepare(const SensorCloud& cloud, const std::function<void()>& await_turn = {});
+  // `floor`: the Mapper's floor layer, and how far from the sensor a frame's view of it reaches;
+  // none: the floor is the fixed frame's z = 0.
+  CloudPreparer(double resolution, const InsertOptions& options, std::uint64_t map_generation,
+                FloorLayer* floor = nullptr, double floor_reach = 0.0);
+  // `floor_frame`: the frame's number at the floor layer (FloorLayer::take(), in the order frames go
+  // into the map), or none for the next one. The number is passed at the layer if the frame is
+  // refused before its floor is asked for.
+  PreparedCloud prepare(const SensorCloud& cloud, std::optional<std::uint64_t> floor_frame = {});
   const FlyingPixelOptions& flyingPixels() const { return inserter_.options().cloud_flying_pixels; }
   // The Mapper's inserterGeneration() it was made for.
   std::uint64_t mapGeneration() const { return map_generation_; }
@@ -91,7 +94,8 @@ class CloudPreparer {
   octomap::OcTree geometry_;  // empty: only its key geometry is read
   ScanInserter inserter_;
   std::uint64_t map_generation_;
-  FloorStage floor_;
+  FloorLayer* floor_;
+  double floor_reach_;
 };
 
 class Mapper {
@@ -101,16 +105,19 @@ class Mapper {
   InsertResult insert(const Scan& scan);
   InsertResult insertPoints(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points);
   // A converted cloud: its points, and the ones its conversion left out counted with them.
-  InsertResult insert(const SensorCloud& cloud);
+  // `floor_frame`: its number at the floor layer if it has one (takeFloorFrame()), else the next.
+  InsertResult insert(const SensorCloud& cloud, std::optional<std::uint64_t> floor_frame = {});
   // insertPoints in two steps, the first away from the Mapper: a preparer for the map as it is
   // now, and its result applied. insertPrepared refuses (false, nothing changed) a result made
   // before a reset, load or reconfigure (another geometry or model): insert that cloud anew.
   std::unique_ptr<CloudPreparer> cloudPreparer() const;
   bool insertPrepared(PreparedCloud prepared, std::uint64_t map_generation, InsertResult* result);
-  // What a depth frame is measured against: its floor found and folded into the floor layer.
-  // Safe to call without the lock that guards the Mapper, but in the order the frames are
-  // inserted (CloudPipeline keeps it); the layer lives as long as the Mapper.
-  FloorStage floorStage() const;
+  // A depth frame's number at the floor layer, in the order frames go into the map (a pipeline
+  // takes it when a frame is submitted); every number taken must reach the layer: inserted,
+  // prepared (CloudPreparer::prepare) or passed. Both are safe without the lock that guards the
+  // Mapper: the layer lives as long as the Mapper and guards itself.
+  std::uint64_t takeFloorFrame() { return floor_->take(); }
+  void passFloorFrame(std::uint64_t frame) { floor_->pass(frame); }
   const FloorLayer& floor() const { return *floor_; }
   // Changes whenever the inserter is replaced (reset, load, reconfigure). May be read without the
   // lock that guards the Mapper (a preparer's check, MappingSession::refreshCloudPreparer).
@@ -180,6 +187,11 @@ class Mapper {
   // cut follow `insert`.
   static void followInsertion(MapperOptions* options);
   InsertResult record(InsertResult result, bool cloud);  // slice update + statistics
+  // How far from the sensor a frame's view of the floor reaches: as far as a return may mark.
+  double floorReach() const;
+  // A cloud's points prepared and applied, its floor frame `floor_frame` (or the next).
+  InsertResult insertCloud(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points,
+                           std::optional<std::uint64_t> floor_frame, const ReadingCounts& left_out);
   // The slice follows the floor layer's new levels: shifted columns, or a band moved whole.
   void followFloor();
   // The user's band moved to the floor level the slice stands on.

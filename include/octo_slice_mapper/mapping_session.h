@@ -108,6 +108,9 @@ class MappingSession {
 
   // The floor layer, which guards itself: readable from any thread without the map's lock.
   const FloorLayer& floor() const { return mapper_.floor(); }
+  // Mapper::takeFloorFrame and passFloorFrame, without the lock (the layer guards itself).
+  std::uint64_t takeFloorFrame() { return mapper_.takeFloorFrame(); }
+  void passFloorFrame(std::uint64_t frame) { mapper_.passFloorFrame(frame); }
   // The mapper without the lock: only for a single-threaded user (the offline tool, tests).
   Mapper& mapperUnlocked() { return mapper_; }
 

@@ -43,7 +43,10 @@ void CloudPipeline::submit(Scan scan, Done done) { submitJob(std::move(scan), st
 void CloudPipeline::submitJob(std::variant<SensorCloud, Scan, DeferredCloud> input, Done done) {
   std::unique_lock<std::mutex> lock(mutex_);
   changed_.wait(lock, [this] { return next_ticket_ - next_applied_ < max_pending_; });
-  queue_.push_back({next_ticket_++, std::move(input), std::move(done)});
+  std::optional<std::uint64_t> floor_frame;
+  // Under the lock: the floor layer numbers the frames in the order they are applied.
+  if (!std::holds_alternative<Scan>(input)) floor_frame = session_->takeFloorFrame();
+  queue_.push_back({next_ticket_++, std::move(input), std::move(done), floor_frame});
   changed_.notify_all();
 }
 
@@ -102,32 +105,18 @@ CloudPipeline::Ready CloudPipeline::prepare(Job job, std::unique_ptr<CloudPrepar
       // With other workers preparing other frames, one thread per frame keeps the cores busy
       // without more threads than cores (and a thread started per frame).
       (*preparer)->setGroupingThreads(workers_.size() > 1 ? 1 : 0);
-      ready.prepared = (*preparer)->prepare(*cloud, [this, &job] { awaitFloorTurn(job.ticket); });
+      ready.prepared = (*preparer)->prepare(*cloud, job.floor_frame);
       ready.map_generation = (*preparer)->mapGeneration();
     }
   } catch (const std::exception& e) {  // (out of memory): this frame is refused, the turn goes on
     ready.error = std::string("preparing the cloud failed: ") + e.what();
   }
-  endFloorTurn(job.ticket);
+  // Its turn at the floor layer passes if it never came to ask (refused, failed).
+  if (job.floor_frame) session_->passFloorFrame(*job.floor_frame);
   ready.cpu_seconds = threadCpuSeconds() - cpu_start;
   ready.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - ready.start).count();
   ready.job = std::move(job);
   return ready;
-}
-
-// Jobs are taken in ticket order and each worker prepares its job to the end before it takes
-// another, so the job holding the turn is always being prepared: no wait here is for a job that
-// waits itself.
-void CloudPipeline::awaitFloorTurn(std::uint64_t ticket) {
-  std::unique_lock<std::mutex> lock(mutex_);
-  floor_changed_.wait(lock, [this, ticket] { return floor_turn_ >= ticket; });
-}
-
-void CloudPipeline::endFloorTurn(std::uint64_t ticket) {
-  std::unique_lock<std::mutex> lock(mutex_);
-  floor_changed_.wait(lock, [this, ticket] { return floor_turn_ >= ticket; });
-  floor_turn_ = ticket + 1;
-  floor_changed_.notify_all();  // only the workers waiting for a turn
 }
 
 void CloudPipeline::apply(Ready& ready) {

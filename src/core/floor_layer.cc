@@ -16,25 +16,15 @@ const char* floorSourceName(FloorSource source) {
   }
 }
 
-double FloorView::heightAt(double x, double y) const {
-  if (!tiles_.empty()) {
-    const int kx = floorKeyOf(x, resolution_), ky = floorKeyOf(y, resolution_);
-    const int tx = (kx >> kTileBits) - tx0_, ty = (ky >> kTileBits) - ty0_;
-    if (kx >= 0 && ky >= 0 && tx >= 0 && ty >= 0 && tx < tiles_x_ && ty < tiles_y_) {
-      if (const Tile* tile = tiles_[std::size_t(ty) * tiles_x_ + tx].get()) {
-        const float h = tile->height[indexInTile(kx, ky)];
-        if (!std::isnan(h)) return h;
-      }
-    }
-  }
-  return plane_ ? plane_->heightAt(x, y) : 0.0;
+FloorLayer::FloorLayer(double resolution, const FloorOptions& options)
+    : resolution_(resolution), inverse_resolution_(1.0 / resolution), options_(options) {
+  known_[0] = Known();
 }
-
-FloorLayer::FloorLayer(double resolution, const FloorOptions& options) : resolution_(resolution), options_(options) {}
 
 void FloorLayer::reset(double resolution) {
   std::lock_guard<std::mutex> lock(mutex_);
   resolution_ = resolution;
+  inverse_resolution_ = 1.0 / resolution;
   tiles_.clear();
   last_plane_.reset();
   fallback_found_ = false;
@@ -44,6 +34,10 @@ void FloorLayer::reset(double resolution) {
   pending_ = LevelChanges();
   pending_.fallback_changed = moved;
   status_ = FloorStatus();
+  // Frames still to come keep their numbers and turns; they are measured against the empty layer.
+  known_.clear();
+  known_[folded_] = Known();
+  reset_at_ = folded_;
 }
 
 void FloorLayer::setOptions(const FloorOptions& options) {
@@ -79,15 +73,44 @@ FloorLayer::LevelChanges FloorLayer::takeLevelChanges() {
   return taken;
 }
 
-// A view holding a tile keeps it as it was: the layer writes into a copy (copy on write).
+const FloorLayer::Tile* FloorLayer::tileAsOf(std::uint32_t id, std::uint64_t folded) const {
+  const auto it = tiles_.find(id);
+  const Tile* tile = it == tiles_.end() ? nullptr : it->second.get();
+  while (tile && tile->since >= folded) tile = tile->before.get();
+  return tile;
+}
+
+std::shared_ptr<const FloorLayer::Tile> FloorLayer::sharedTileAsOf(std::uint32_t id, std::uint64_t folded) const {
+  const auto it = tiles_.find(id);
+  std::shared_ptr<const Tile> tile;
+  if (it != tiles_.end()) tile = it->second;
+  while (tile && tile->since >= folded) tile = tile->before;
+  return tile;
+}
+
+// A tile is written in a new version once per fold: views and frames still to be measured
+// against an older layer keep theirs. Versions no frame to come can be measured against are let go.
 FloorLayer::Tile& FloorLayer::writableTile(int tx, int ty) {
   std::shared_ptr<Tile>& tile = tiles_[tileId(tx, ty)];
   if (!tile) {
     tile = std::make_shared<Tile>();
     std::fill(std::begin(tile->height), std::end(tile->height), std::numeric_limits<float>::quiet_NaN());
     std::fill(std::begin(tile->weight), std::end(tile->weight), std::uint8_t{0});
-  } else if (tile.use_count() > 1) {
-    tile = std::make_shared<Tile>(*tile);
+    tile->since = folded_;
+  } else if (tile->since != folded_) {
+    auto copy = std::make_shared<Tile>(*tile);
+    copy->since = folded_;
+    copy->before = std::move(tile);
+    tile = std::move(copy);
+    // The frames still to fold (folded_ + 1 on) are measured against the layer after at least
+    // folded_ + 2 - kLag frames.
+    const std::uint64_t oldest = folded_ + 2 >= kLag ? folded_ + 2 - kLag : 0;
+    for (const Tile* v = tile.get(); v; v = v->before.get()) {
+      if (v->since < oldest) {
+        v->before.reset();
+        break;
+      }
+    }
   }
   return *tile;
 }
@@ -105,14 +128,12 @@ void FloorLayer::setCell(int kx, int ky, double measured, bool seen) {
     after = static_cast<float>(measured);
     tile.weight[i] = 0;
     status_.cells++;
-  } else if (std::isnan(before) || tile.weight[i] == 0 || std::abs(measured - before) > options_.fit.seed_window) {
-    after = static_cast<float>(measured);
-    tile.weight[i] = 1;
-    if (std::isnan(before)) status_.cells++;
   } else {
-    const int w = tile.weight[i];
-    after = static_cast<float>((before * w + measured) / (w + 1));
-    tile.weight[i] = static_cast<std::uint8_t>(std::min(w + 1, std::clamp(options_.memory_frames, 1, 255)));
+    after = static_cast<float>(measuredMean(before, tile.weight[i], measured, options_));
+    if (std::isnan(before)) status_.cells++;
+    tile.weight[i] = replaces(before, tile.weight[i], measured, options_)
+                         ? std::uint8_t{1}
+                         : static_cast<std::uint8_t>(std::min(tile.weight[i] + 1, std::clamp(options_.memory_frames, 1, 255)));
   }
   tile.height[i] = after;
   if (std::isnan(before) || levelOf(before) != levelOf(after)) {
@@ -130,108 +151,135 @@ void FloorLayer::relevel() {
   }
 }
 
-double FloorLayer::knownHeightAt(double x, double y, double otherwise) const {
-  const int kx = floorKeyOf(x, resolution_), ky = floorKeyOf(y, resolution_);
+double FloorLayer::knownHeightAt(double x, double y, std::uint64_t folded, double otherwise) const {
+  const int kx = floorKeyScaled(x, inverse_resolution_), ky = floorKeyScaled(y, inverse_resolution_);
   if (kx < 0 || ky < 0) return otherwise;
-  const auto it = tiles_.find(tileId(kx >> FloorView::kTileBits, ky >> FloorView::kTileBits));
-  if (it == tiles_.end()) return otherwise;
-  const float h = it->second->height[FloorView::indexInTile(kx, ky)];
+  const Tile* tile = tileAsOf(tileId(kx >> FloorView::kTileBits, ky >> FloorView::kTileBits), folded);
+  if (!tile) return otherwise;
+  const float h = tile->height[FloorView::indexInTile(kx, ky)];
   return std::isnan(h) ? otherwise : h;
 }
 
-FloorView FloorLayer::observe(const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples,
-                              double reach) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  std::optional<FloorFit> fit;
-  if (options_.find) {
-    fit = fitFloor(samples, sensor, last_plane_ ? std::optional<FloorPlane>(last_plane_->plane) : std::nullopt, options_.fit);
-  }
-  if (fit && fallback_found_ && last_plane_) {
-    // Once a floor is known, a level surface well above it is not the floor (FloorOptions::max_rise).
-    const double known = knownHeightAt(sensor.x(), sensor.y(), last_plane_->heightAt(sensor.x(), sensor.y()));
-    const double found = BoundedPlane::of(*fit, options_.extrapolation).heightAt(sensor.x(), sensor.y());
-    if (found > known + options_.max_rise) fit.reset();
-  }
-  if (fit) {
-    const BoundedPlane plane = BoundedPlane::of(*fit, options_.extrapolation);
-    const double height = plane.heightAt(sensor.x(), sensor.y());
-    // A floor found well below the one known: what was taken for the floor was a table or a bed.
-    if (fallback_found_ && height < fallback_height_ - options_.fit.seed_window) {
-      for (auto& [id, shared] : tiles_) {
-        for (int i = 0; i < FloorView::kTileSize * FloorView::kTileSize; ++i) {
-          if (std::isnan(shared->height[i])) continue;
-          const int kx = keyXOf(id, i), ky = keyYOf(id, i);
-          if (shared->height[i] <= heightAtCell(plane, kx, ky) + options_.fit.seed_window) continue;
-          Tile& tile = writableTile(kx >> FloorView::kTileBits, ky >> FloorView::kTileBits);
-          tile.height[i] = std::numeric_limits<float>::quiet_NaN();
-          tile.weight[i] = 0;
-          status_.cells--;
-          pending_.cells.emplace_back(std::uint32_t(kx) | std::uint32_t(ky) << 16, kNoLevel);
-        }
-      }
-    }
-    // The level where no cell is known, first: the cells' levels are taken against it.
-    const int level = static_cast<int>(std::lround(height / resolution_));
-    if (!fallback_found_ || std::abs(level - fallback_level_) >= 2) {
-      if (level != fallback_level_) {
-        fallback_level_ = level;
-        pending_.fallback_changed = true;
-        relevel();
-      }
-    }
-    fallback_found_ = true;
-    fallback_height_ = height;
-    // One measurement per cell per frame: the plane's height at the cells its inliers lie in.
-    std::vector<std::uint32_t> cells;
-    cells.reserve(fit->inliers.size());
-    for (std::size_t i : fit->inliers) {
-      const int kx = floorKeyOf(samples[i].x(), resolution_), ky = floorKeyOf(samples[i].y(), resolution_);
-      if (kx >= 0 && ky >= 0) cells.push_back(std::uint32_t(kx) | std::uint32_t(ky) << 16);
-    }
-    std::sort(cells.begin(), cells.end());
-    cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
-    for (std::uint32_t c : cells) {
-      const int kx = int(c & 0xffff), ky = int(c >> 16);
-      setCell(kx, ky, heightAtCell(plane, kx, ky), true);
-    }
-    // Columns the frame saw something else in (a wall, a step, a table's legs) and no floor was
-    // ever seen under: the plane's height there, until a floor is seen (weight 0). Their slice
-    // band then follows the floor around them, not the floor under the sensor.
-    // Most columns are known after a few frames: the last tile looked up answers most samples
-    // (they come in runs of neighbours) without a search of the tiles.
-    std::uint32_t last_id = ~std::uint32_t{0};
-    const Tile* last = nullptr;
-    for (const Eigen::Vector3d& p : samples) {
-      const int kx = floorKeyOf(p.x(), resolution_), ky = floorKeyOf(p.y(), resolution_);
-      if (kx < 0 || ky < 0) continue;
-      const std::uint32_t id = tileId(kx >> FloorView::kTileBits, ky >> FloorView::kTileBits);
-      if (id != last_id) {
-        const auto it = tiles_.find(id);
-        last = it == tiles_.end() ? nullptr : it->second.get();
-        last_id = id;
-      }
-      if (last && !std::isnan(last->height[FloorView::indexInTile(kx, ky)])) continue;
-      setCell(kx, ky, heightAtCell(plane, kx, ky), false);
-      last_id = ~std::uint32_t{0};  // the tile may be new, or a copy now
-    }
-    last_plane_ = plane;
-    status_.source = FloorSource::kFound;
-    status_.height = height;
-    status_.tilt = plane.plane.tilt();
-    status_.frames_found++;
-  } else {
-    status_.source = fallback_found_ ? FloorSource::kKept : FloorSource::kAssumed;
-    status_.height = last_plane_ ? last_plane_->heightAt(sensor.x(), sensor.y()) : 0.0;
-    status_.frames_without++;
-  }
+// A cell's floor once a frame measured `measured` there: the running mean of the frames'
+// measurements, or the new one where none was seen (only extrapolated: weight 0) or it is
+// another surface (farther than the seed window).
+bool FloorLayer::replaces(float before, std::uint8_t weight, double measured, const FloorOptions& options) {
+  return std::isnan(before) || weight == 0 || std::abs(measured - before) > options.fit.seed_window;
+}
 
+double FloorLayer::measuredMean(float before, std::uint8_t weight, double measured, const FloorOptions& options) {
+  return replaces(before, weight, measured, options) ? measured : (before * weight + measured) / (weight + 1);
+}
+
+std::uint64_t FloorLayer::take() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return taken_++;
+}
+
+void FloorLayer::pass(std::uint64_t frame) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (frame < folded_ || waiting_.count(frame)) return;
+  waiting_.emplace(frame, Fold());
+  foldReady();
+}
+
+namespace {
+
+// Cells (key x | key y << 16) of `keys` (-1: outside) each once, in first-seen order; `skip`
+// (in the same box) marks the ones already taken elsewhere.
+struct CellSet {
+  int x0 = 65535, y0 = 65535, x1 = -1, y1 = -1;
+  std::vector<std::uint8_t> taken;
+  void cover(int kx, int ky) {
+    x0 = std::min(x0, kx), x1 = std::max(x1, kx), y0 = std::min(y0, ky), y1 = std::max(y1, ky);
+  }
+  void allocate() { taken.assign(x1 < x0 ? 0 : std::size_t(x1 - x0 + 1) * std::size_t(y1 - y0 + 1), 0); }
+  // Whether the cell is new (and now taken).
+  bool add(int kx, int ky) {
+    std::uint8_t& t = taken[std::size_t(ky - y0) * std::size_t(x1 - x0 + 1) + std::size_t(kx - x0)];
+    if (t) return false;
+    t = 1;
+    return true;
+  }
+};
+
+}  // namespace
+
+FloorLayer::Fold FloorLayer::measure(const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples,
+                                     const Known& known, const FloorOptions& options,
+                                     double inverse_resolution) const {
+  Fold fold;
+  fold.observed = true;
+  fold.sensor = sensor;
+  if (!options.find) return fold;
+  const std::optional<FloorFit> fit = fitFloor(
+      samples, sensor, known.last_plane ? std::optional<FloorPlane>(known.last_plane->plane) : std::nullopt, options.fit);
+  if (!fit) return fold;
+  fold.plane = BoundedPlane::of(*fit, options.extrapolation);
+  // The cells it speaks for: where its floor returns lie, and every other column it saw.
+  std::vector<std::pair<int, int>> keys(samples.size());
+  CellSet cells;
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    keys[i] = {floorKeyScaled(samples[i].x(), inverse_resolution), floorKeyScaled(samples[i].y(), inverse_resolution)};
+    if (keys[i].first >= 0 && keys[i].second >= 0) cells.cover(keys[i].first, keys[i].second);
+  }
+  cells.allocate();
+  const auto cellOf = [](const std::pair<int, int>& k) { return std::uint32_t(k.first) | std::uint32_t(k.second) << 16; };
+  for (std::size_t i : fit->inliers) {
+    if (keys[i].first >= 0 && keys[i].second >= 0 && cells.add(keys[i].first, keys[i].second)) {
+      fold.floor_cells.push_back(cellOf(keys[i]));
+    }
+  }
+  for (const auto& k : keys) {
+    if (k.first >= 0 && k.second >= 0 && cells.add(k.first, k.second)) fold.other_cells.push_back(cellOf(k));
+  }
+  return fold;
+}
+
+FloorView FloorLayer::observe(std::uint64_t frame, const Eigen::Vector3d& sensor,
+                              const std::vector<Eigen::Vector3d>& samples, double reach) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  const bool fresh = frame >= folded_ && !waiting_.count(frame);
+  std::uint64_t folded = folded_;
+  if (fresh) {
+    // (After a reset, as in a new layer: the frames before it are not waited for.)
+    folded = std::max(frame + 1 >= kLag ? frame + 1 - kLag : 0, reset_at_);
+    folded_more_.wait(lock, [&] { return folded_ >= folded; });
+  }
+  auto known_it = known_.find(folded);
+  if (known_it == known_.end()) {  // reset meanwhile: the layer as it is
+    folded = folded_;
+    known_it = known_.find(folded);
+  }
+  const Known known = known_it->second;
+  const FloorOptions options = options_;
+  const double inverse_resolution = inverse_resolution_;
+  lock.unlock();
+
+  Fold measured = measure(sensor, samples, known, options, inverse_resolution);
+
+  lock.lock();
+  if (measured.plane && known.fallback_found && known.last_plane) {
+    // Once a floor is known, a level surface well above it is not the floor (FloorOptions::max_rise).
+    const double before = knownHeightAt(sensor.x(), sensor.y(), folded, known.last_plane->heightAt(sensor.x(), sensor.y()));
+    if (measured.plane->heightAt(sensor.x(), sensor.y()) > before + options.max_rise) {
+      measured.plane.reset();
+      measured.floor_cells.clear();
+      measured.other_cells.clear();
+    }
+  }
   FloorView view;
-  view.resolution_ = resolution_;
-  view.plane_ = last_plane_;  // this frame's, or the last one found
-  if (!tiles_.empty() && reach > 0.0) {
+  view.inverse_resolution_ = inverse_resolution;
+  view.plane_ = measured.plane ? measured.plane : known.last_plane;  // this frame's, or the last one found
+  // A floor found well below the one known (what was taken for the floor was a table): the
+  // cells known are not this frame's floor.
+  const bool lower = measured.plane && known.fallback_found &&
+                     measured.plane->heightAt(sensor.x(), sensor.y()) < known.fallback_height - options.fit.seed_window;
+  // The rectangle even where nothing is known: the frame's own measurements go into it below.
+  if (reach > 0.0) {
     const double r = std::min(reach, 1000.0);
-    const int kx0 = floorKeyOf(sensor.x() - r, resolution_), kx1 = floorKeyOf(sensor.x() + r, resolution_);
-    const int ky0 = floorKeyOf(sensor.y() - r, resolution_), ky1 = floorKeyOf(sensor.y() + r, resolution_);
+    const int kx0 = floorKeyScaled(sensor.x() - r, inverse_resolution), kx1 = floorKeyScaled(sensor.x() + r, inverse_resolution);
+    const int ky0 = floorKeyScaled(sensor.y() - r, inverse_resolution), ky1 = floorKeyScaled(sensor.y() + r, inverse_resolution);
     if (kx0 >= 0 && kx1 >= 0 && ky0 >= 0 && ky1 >= 0) {
       view.tx0_ = kx0 >> FloorView::kTileBits, view.ty0_ = ky0 >> FloorView::kTileBits;
       view.tiles_x_ = (kx1 >> FloorView::kTileBits) - view.tx0_ + 1;
@@ -239,13 +287,133 @@ FloorView FloorLayer::observe(const Eigen::Vector3d& sensor, const std::vector<E
       view.tiles_.resize(std::size_t(view.tiles_x_) * view.tiles_y_);
       for (int ty = 0; ty < view.tiles_y_; ++ty) {
         for (int tx = 0; tx < view.tiles_x_; ++tx) {
-          const auto it = tiles_.find(tileId(view.tx0_ + tx, view.ty0_ + ty));
-          if (it != tiles_.end()) view.tiles_[std::size_t(ty) * view.tiles_x_ + tx] = it->second;
+          if (!lower) view.tiles_[std::size_t(ty) * view.tiles_x_ + tx] = sharedTileAsOf(tileId(view.tx0_ + tx, view.ty0_ + ty), folded);
         }
       }
     }
   }
+  const bool fold = fresh && frame >= folded_ && !waiting_.count(frame);
+  const double resolution = resolution_;
+  lock.unlock();
+
+  // The frame's own floor measurements, as its fold will make them, in a copy of the view's tiles:
+  // where it sees the floor it is measured against what it sees.
+  if (measured.plane && !view.tiles_.empty()) {
+    std::vector<bool> own(view.tiles_.size(), false);
+    const int window_x = view.tiles_x_ << FloorView::kTileBits, window_y = view.tiles_y_ << FloorView::kTileBits;
+    const int kx0 = view.tx0_ << FloorView::kTileBits, ky0 = view.ty0_ << FloorView::kTileBits;
+    for (std::uint32_t c : measured.floor_cells) {
+      const int kx = int(c & 0xffff), ky = int(c >> 16);
+      if (kx < kx0 || ky < ky0 || kx >= kx0 + window_x || ky >= ky0 + window_y) continue;
+      const std::size_t t = std::size_t((ky >> FloorView::kTileBits) - view.ty0_) * view.tiles_x_ +
+                            std::size_t((kx >> FloorView::kTileBits) - view.tx0_);
+      if (!own[t]) {
+        auto copy = std::make_shared<Tile>();
+        if (view.tiles_[t]) {
+          std::copy(std::begin(view.tiles_[t]->height), std::end(view.tiles_[t]->height), copy->height);
+          std::copy(std::begin(view.tiles_[t]->weight), std::end(view.tiles_[t]->weight), copy->weight);
+        } else {
+          std::fill(std::begin(copy->height), std::end(copy->height), std::numeric_limits<float>::quiet_NaN());
+          std::fill(std::begin(copy->weight), std::end(copy->weight), std::uint8_t{0});
+        }
+        view.tiles_[t] = copy;
+        own[t] = true;
+      }
+      Tile& tile = const_cast<Tile&>(*view.tiles_[t]);  // this view's own copy
+      const int i = FloorView::indexInTile(kx, ky);
+      const double h = measured.plane->heightAt(floorCentreOf(kx, resolution), floorCentreOf(ky, resolution));
+      tile.height[i] = static_cast<float>(measuredMean(tile.height[i], tile.weight[i], h, options));
+    }
+  }
+  if (fold) {
+    lock.lock();
+    if (frame >= folded_ && !waiting_.count(frame)) {
+      waiting_.emplace(frame, std::move(measured));
+      foldReady();
+    }
+  }
   return view;
+}
+
+void FloorLayer::foldReady() {
+  bool any = false;
+  for (auto it = waiting_.find(folded_); it != waiting_.end(); it = waiting_.find(folded_)) {
+    fold(it->second);
+    waiting_.erase(it);
+    ++folded_;
+    known_[folded_] = Known{last_plane_, fallback_found_, fallback_height_};
+    // Frames from folded_ on are measured against the layer after folded_ + 1 - kLag frames or more.
+    const std::uint64_t oldest = folded_ + 1 >= kLag ? folded_ + 1 - kLag : 0;
+    known_.erase(known_.begin(), known_.lower_bound(oldest));
+    any = true;
+  }
+  if (any) folded_more_.notify_all();
+}
+
+void FloorLayer::fold(const Fold& frame) {
+  if (!frame.observed) return;
+  const Eigen::Vector3d& sensor = frame.sensor;
+  std::optional<BoundedPlane> found = frame.plane;
+  if (found && fallback_found_ && last_plane_) {
+    // The table rule again, against the layer now: frames folded in since it was measured may
+    // have found the floor.
+    const double known = knownHeightAt(sensor.x(), sensor.y(), ~std::uint64_t{0}, last_plane_->heightAt(sensor.x(), sensor.y()));
+    if (found->heightAt(sensor.x(), sensor.y()) > known + options_.max_rise) found.reset();
+  }
+  if (!found) {
+    status_.source = fallback_found_ ? FloorSource::kKept : FloorSource::kAssumed;
+    status_.height = last_plane_ ? last_plane_->heightAt(sensor.x(), sensor.y()) : 0.0;
+    status_.frames_without++;
+    return;
+  }
+  const BoundedPlane& plane = *found;
+  const double height = plane.heightAt(sensor.x(), sensor.y());
+  // A floor found well below the one known: what was taken for the floor was a table or a bed.
+  if (fallback_found_ && height < fallback_height_ - options_.fit.seed_window) {
+    std::vector<std::uint32_t> ids;
+    for (const auto& entry : tiles_) ids.push_back(entry.first);
+    for (std::uint32_t id : ids) {
+      for (int i = 0; i < FloorView::kTileSize * FloorView::kTileSize; ++i) {
+        const float h = tiles_[id]->height[i];
+        if (std::isnan(h)) continue;
+        const int kx = keyXOf(id, i), ky = keyYOf(id, i);
+        if (h <= heightAtCell(plane, kx, ky) + options_.fit.seed_window) continue;
+        Tile& tile = writableTile(kx >> FloorView::kTileBits, ky >> FloorView::kTileBits);
+        tile.height[i] = std::numeric_limits<float>::quiet_NaN();
+        tile.weight[i] = 0;
+        status_.cells--;
+        pending_.cells.emplace_back(std::uint32_t(kx) | std::uint32_t(ky) << 16, kNoLevel);
+      }
+    }
+  }
+  // The level where no cell is known, first: the cells' levels are taken against it.
+  const int level = static_cast<int>(std::lround(height / resolution_));
+  if (!fallback_found_ || std::abs(level - fallback_level_) >= 2) {
+    if (level != fallback_level_) {
+      fallback_level_ = level;
+      pending_.fallback_changed = true;
+      relevel();
+    }
+  }
+  fallback_found_ = true;
+  fallback_height_ = height;
+  // One measurement per cell per frame: the plane's height at the cells its inliers lie in.
+  for (std::uint32_t c : frame.floor_cells) {
+    const int kx = int(c & 0xffff), ky = int(c >> 16);
+    setCell(kx, ky, heightAtCell(plane, kx, ky), true);
+  }
+  // Columns the frame saw something else in (a wall, a step, a table's legs) and no floor was
+  // ever seen under: the plane's height there, until a floor is seen (weight 0). Their slice
+  // band then follows the floor around them, not the floor under the sensor.
+  for (std::uint32_t c : frame.other_cells) {
+    const int kx = int(c & 0xffff), ky = int(c >> 16);
+    setCell(kx, ky, heightAtCell(plane, kx, ky), false);
+  }
+  last_plane_ = plane;
+  status_.source = FloorSource::kFound;
+  status_.height = height;
+  status_.tilt = plane.plane.tilt();
+  status_.frames_found++;
 }
 
 void FloorLayer::forEachCell(const std::function<void(std::uint16_t, std::uint16_t, float)>& fn) const {

@@ -74,26 +74,52 @@ void Mapper::boundUnflushed() {
   if (cache.dirtyCount() > bound) cache.flushOldest(cache.dirtyCount() - (bound - bound / 8));
 }
 
-InsertResult Mapper::insertPoints(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points) {
-  const double half_angle = inserter_->model().halfAngleFor(0.0);
-  return record(inserter_->applyCloud(inserter_->prepareCloud(origin, points, half_angle, floorStage())), /*cloud=*/true);
+namespace {
+
+// What frame `frame` is measured against: its floor found and folded into the layer in its turn.
+FloorStage floorStageOf(FloorLayer* layer, std::uint64_t frame, double reach) {
+  return [layer, frame, reach](const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples) {
+    return layer->observe(frame, sensor, samples, reach);
+  };
 }
 
-InsertResult Mapper::insert(const SensorCloud& cloud) {
+// Passes a frame's turn at the floor layer on every way out, unless its floor was asked for.
+class FloorTurn {
+ public:
+  FloorTurn(FloorLayer* layer, std::uint64_t frame) : layer_(layer), frame_(frame) {}
+  ~FloorTurn() { layer_->pass(frame_); }
+  FloorTurn(const FloorTurn&) = delete;
+  FloorTurn& operator=(const FloorTurn&) = delete;
+
+ private:
+  FloorLayer* layer_;
+  std::uint64_t frame_;
+};
+
+}  // namespace
+
+InsertResult Mapper::insertPoints(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points) {
+  return insertCloud(origin, points, std::nullopt, ReadingCounts());
+}
+
+InsertResult Mapper::insert(const SensorCloud& cloud, std::optional<std::uint64_t> floor_frame) {
+  return insertCloud(cloud.origin, cloud.points, floor_frame, cloud.left_out);
+}
+
+InsertResult Mapper::insertCloud(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points,
+                                 std::optional<std::uint64_t> floor_frame, const ReadingCounts& left_out) {
+  const std::uint64_t frame = floor_frame ? *floor_frame : floor_->take();
+  const FloorTurn turn(floor_.get(), frame);
   const double half_angle = inserter_->model().halfAngleFor(0.0);
-  InsertResult result = inserter_->applyCloud(inserter_->prepareCloud(cloud.origin, cloud.points, half_angle, floorStage()));
-  result.readings += cloud.left_out;
+  InsertResult result = inserter_->applyCloud(
+      inserter_->prepareCloud(origin, points, half_angle, floorStageOf(floor_.get(), frame, floorReach())));
+  result.readings += left_out;
   return record(std::move(result), /*cloud=*/true);
 }
 
-FloorStage Mapper::floorStage() const {
-  // The view reaches as far as a return may mark.
+double Mapper::floorReach() const {
   const InsertOptions& o = options_.insert;
-  const double reach = o.cloud_max_range > 0.0 ? o.cloud_max_range : o.max_range > 0.0 ? o.max_range : 30.0;
-  FloorLayer* layer = floor_.get();
-  return [layer, reach](const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples) {
-    return layer->observe(sensor, samples, reach);
-  };
+  return o.cloud_max_range > 0.0 ? o.cloud_max_range : o.max_range > 0.0 ? o.max_range : 30.0;
 }
 
 SliceOptions Mapper::sliceBand(const SliceOptions& band) const {
@@ -142,25 +168,31 @@ void Mapper::followFloor() {
 }
 
 CloudPreparer::CloudPreparer(double resolution, const InsertOptions& options, std::uint64_t map_generation,
-                             FloorStage floor)
-    : geometry_(resolution), inserter_(&geometry_, options), map_generation_(map_generation), floor_(std::move(floor)) {}
+                             FloorLayer* floor, double floor_reach)
+    : geometry_(resolution),
+      inserter_(&geometry_, options),
+      map_generation_(map_generation),
+      floor_(floor),
+      floor_reach_(floor_reach) {}
 
-PreparedCloud CloudPreparer::prepare(const SensorCloud& cloud, const std::function<void()>& await_turn) {
-  FloorStage floor = floor_;
-  if (floor && await_turn) {
-    floor = [this, &await_turn](const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples) {
-      await_turn();
-      return floor_(sensor, samples);
-    };
+PreparedCloud CloudPreparer::prepare(const SensorCloud& cloud, std::optional<std::uint64_t> floor_frame) {
+  if (!floor_) {
+    PreparedCloud prepared = inserter_.prepareCloud(cloud.origin, cloud.points, inserter_.model().halfAngleFor(0.0));
+    prepared.result.readings += cloud.left_out;
+    return prepared;
   }
-  PreparedCloud prepared =
-      inserter_.prepareCloud(cloud.origin, cloud.points, inserter_.model().halfAngleFor(0.0), floor);
+  const std::uint64_t frame = floor_frame ? *floor_frame : floor_->take();
+  const FloorTurn turn(floor_, frame);
+  PreparedCloud prepared = inserter_.prepareCloud(cloud.origin, cloud.points, inserter_.model().halfAngleFor(0.0),
+                                                  floorStageOf(floor_, frame, floor_reach_));
   prepared.result.readings += cloud.left_out;
+  prepared.floor_frame = frame;
   return prepared;
 }
 
 std::unique_ptr<CloudPreparer> Mapper::cloudPreparer() const {
-  return std::make_unique<CloudPreparer>(tree_->getResolution(), options_.insert, inserterGeneration(), floorStage());
+  return std::make_unique<CloudPreparer>(tree_->getResolution(), options_.insert, inserterGeneration(), floor_.get(),
+                                         floorReach());
 }
 
 bool Mapper::insertPrepared(PreparedCloud prepared, std::uint64_t map_generation, InsertResult* result) {

@@ -74,9 +74,11 @@ InsertResult MappingSession::insertPrepared(PreparedCloud prepared, std::uint64_
   std::lock_guard<std::mutex> lock(mutex_);
   if (waited_ms) *waited_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   InsertResult result;
+  const std::optional<std::uint64_t> floor_frame = prepared.floor_frame;
   if (mapper_.insertPrepared(std::move(prepared), map_generation, &result)) return recordInsert(result);
-  // Reset, loaded or reconfigured while it was prepared: inserted the ordinary way.
-  return recordInsert(mapper_.insert(cloud));
+  // Reset, loaded or reconfigured while it was prepared: inserted the ordinary way (as the same
+  // frame at the floor layer, whose turn has come: nothing there waits).
+  return recordInsert(mapper_.insert(cloud, floor_frame));
 }
 
 // Scans keep going into the insertion cache while the octree is lent (Mapper::snapshot); the loan

@@ -6,8 +6,10 @@
 
 #include <Eigen/Core>
 #include <cmath>
+#include <condition_variable>
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -52,16 +54,18 @@ struct FloorStatus {
   std::size_t cells = 0;  // cells whose floor is known
 };
 
-// A cell's key coordinate (OctoMap's, for a tree of depth 16) along one axis, -1 outside; and the
-// coordinate of a key's cell centre.
-inline int floorKeyOf(double coordinate, double resolution) {
-  const double k = std::floor(coordinate / resolution) + 32768.0;
+// A cell's key coordinate (OctoMap's, for a tree of depth 16) along one axis, -1 outside, given
+// 1 / resolution: rounded as OctoMap's coordToKey rounds (floor(c * (1 / resolution))), so that
+// a floor cell is its octree column's; and the coordinate of a key's cell centre.
+inline int floorKeyScaled(double coordinate, double inverse_resolution) {
+  const double k = std::floor(coordinate * inverse_resolution) + 32768.0;
   return k < 0.0 ? -1 : k > 65535.0 ? -1 : static_cast<int>(k);
 }
+inline int floorKeyOf(double coordinate, double resolution) { return floorKeyScaled(coordinate, 1.0 / resolution); }
 inline double floorCentreOf(int key, double resolution) { return (key - 32768 + 0.5) * resolution; }
 
-// The floor one frame is measured against, taken when the frame's own floor was folded in:
-// frames prepared in parallel each see the layer as of their own turn.
+// The floor one frame is measured against: the layer as it stood FloorLayer::kLag frames
+// before it, and the frame's own plane.
 class FloorView {
  public:
   static constexpr int kTileBits = 5;  // 32 x 32 cells per tile
@@ -69,6 +73,10 @@ class FloorView {
   struct Tile {
     float height[kTileSize * kTileSize];  // NaN: not known
     std::uint8_t weight[kTileSize * kTileSize];
+    // The layer's versions (read and written under its lock only): the frame whose fold made
+    // this one, and the one before it, for frames measured against an older layer.
+    std::uint64_t since = 0;
+    mutable std::shared_ptr<const Tile> before;
   };
   // Where the cell of keys (kx, ky) lies in its tile.
   static int indexInTile(int kx, int ky) { return (ky & (kTileSize - 1)) * kTileSize + (kx & (kTileSize - 1)); }
@@ -77,26 +85,58 @@ class FloorView {
   FloorView() = default;
   // The floor under (x, y): the cell's where known, else the plane of this frame or the last one
   // found before it, else (no floor ever found) the fixed frame's z = 0.
-  double heightAt(double x, double y) const;
+  // (Inline: it is asked once per return.)
+  double heightAt(double x, double y) const {
+    if (!tiles_.empty()) {
+      const int kx = floorKeyScaled(x, inverse_resolution_), ky = floorKeyScaled(y, inverse_resolution_);
+      const int tx = (kx >> kTileBits) - tx0_, ty = (ky >> kTileBits) - ty0_;
+      if (kx >= 0 && ky >= 0 && tx >= 0 && ty >= 0 && tx < tiles_x_ && ty < tiles_y_) {
+        if (const Tile* tile = tiles_[std::size_t(ty) * tiles_x_ + tx].get()) {
+          const float h = tile->height[indexInTile(kx, ky)];
+          if (!std::isnan(h)) return h;
+        }
+      }
+    }
+    return plane_ ? plane_->heightAt(x, y) : 0.0;
+  }
 
  private:
   friend class FloorLayer;
-  double resolution_ = 1.0;
+  double inverse_resolution_ = 1.0;
   int tx0_ = 0, ty0_ = 0, tiles_x_ = 0, tiles_y_ = 0;
   std::vector<std::shared_ptr<const Tile>> tiles_;  // row-major over the rectangle; null: none known
   std::optional<BoundedPlane> plane_;
 };
 
-// Thread-safe. observe() must be called in the order the frames go into the map (the cloud
-// pipeline's turns): each frame's floor is sought near the last one found.
+// Thread-safe. Frames are numbered in the order they go into the map (take()). Frame f is
+// measured against the layer as it stood once frames 0 .. f - kLag were folded in, and is folded
+// in itself once every frame before it was: frames prepared in parallel (CloudPipeline) neither
+// wait for the frame just before them nor see it, and the layer and every view are the same
+// whichever frame's preparation ran first.
 class FloorLayer {
  public:
+  // A pipeline of up to kLag workers never waits for the layer (when a worker takes frame f,
+  // frames up to f - workers are done).
+  static constexpr std::uint64_t kLag = 2;
+
   FloorLayer(double resolution, const FloorOptions& options);
 
-  // Finds the frame's floor among `samples` (map frame; a frame's end-voxel means), folds it in,
-  // and returns the view of the layer within `reach` (m) of the sensor that the frame's returns
-  // are measured against.
-  FloorView observe(const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples, double reach);
+  // The next frame's number.
+  std::uint64_t take();
+  // Finds frame `frame`'s floor among `samples` (map frame; its end-voxel means), seeded by the
+  // floor known kLag frames before, and returns the view of the layer within `reach` (m) of the
+  // sensor that its returns are measured against; the floor is folded in in the frame's turn.
+  // Waits (only) until frame - kLag has been folded in. A frame already folded in (inserted
+  // anew after a reset) is measured against the layer as it is now and not folded in again.
+  FloorView observe(std::uint64_t frame, const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples,
+                    double reach);
+  // observe(take(), ...): one frame after another.
+  FloorView observe(const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples, double reach) {
+    return observe(take(), sensor, samples, reach);
+  }
+  // Frame `frame` is not observed (refused before its floor was asked for): its turn passes.
+  // Nothing when it was observed. Every number taken must be observed or passed.
+  void pass(std::uint64_t frame);
 
   // Floor levels (height / resolution, rounded: the voxel layer the floor is in) for the slice.
   // The level where no cell is known follows the floors found, by whole voxels and only when it
@@ -124,6 +164,19 @@ class FloorLayer {
 
  private:
   using Tile = FloorView::Tile;
+  // What a frame is measured against, besides the tiles: the layer's scalars after a fold.
+  struct Known {
+    std::optional<BoundedPlane> last_plane;
+    bool fallback_found = false;
+    double fallback_height = 0.0;
+  };
+  // A frame's floor, measured on its worker, folded in in its turn.
+  struct Fold {
+    bool observed = false;  // false: passed
+    Eigen::Vector3d sensor = Eigen::Vector3d::Zero();
+    std::optional<BoundedPlane> plane;  // none: no floor found in the frame
+    std::vector<std::uint32_t> floor_cells, other_cells;  // (key x | key y << 16), each once
+  };
   static std::uint32_t tileId(int tx, int ty) { return std::uint32_t(tx) | std::uint32_t(ty) << 16; }
   // The keys of cell i of tile `id`.
   static int keyXOf(std::uint32_t id, int i) { return int(id & 0xffff) << FloorView::kTileBits | (i & (FloorView::kTileSize - 1)); }
@@ -132,11 +185,22 @@ class FloorLayer {
   double heightAtCell(const BoundedPlane& plane, int kx, int ky) const {
     return plane.heightAt(floorCentreOf(kx, resolution_), floorCentreOf(ky, resolution_));
   }
+  // Tile `id` as it stood once `folded` frames were folded in (null: none yet).
+  const Tile* tileAsOf(std::uint32_t id, std::uint64_t folded) const;
+  std::shared_ptr<const Tile> sharedTileAsOf(std::uint32_t id, std::uint64_t folded) const;
   Tile& writableTile(int tx, int ty);
   // A floor measured in the cell (`seen`), or the frame's plane extrapolated to a cell that has none.
   void setCell(int kx, int ky, double height, bool seen);
-  // The cell's floor at (x, y), or `otherwise` where none is known.
-  double knownHeightAt(double x, double y, double otherwise) const;
+  // The cell's floor at (x, y) once `folded` frames were folded in, or `otherwise` where none was known.
+  double knownHeightAt(double x, double y, std::uint64_t folded, double otherwise) const;
+  static bool replaces(float before, std::uint8_t weight, double measured, const FloorOptions& options);
+  static double measuredMean(float before, std::uint8_t weight, double measured, const FloorOptions& options);
+  // A frame's floor measured against `known`: whether it is the floor, and the cells it speaks for.
+  Fold measure(const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples, const Known& known,
+               const FloorOptions& options, double inverse_resolution) const;
+  // Folds in the frames whose turn it is (under the lock).
+  void foldReady();
+  void fold(const Fold& frame);
   // A cell's voxel layer; within three quarters of a layer of the fallback's, the fallback's: a
   // level floor's noise and a few millimetres of tilt must not split it into shifted columns (a
   // shifted column is read voxel by voxel).
@@ -148,15 +212,21 @@ class FloorLayer {
   void relevel();
 
   mutable std::mutex mutex_;
-  double resolution_;
+  std::condition_variable folded_more_;
+  double resolution_, inverse_resolution_;
   FloorOptions options_;
-  std::unordered_map<std::uint32_t, std::shared_ptr<Tile>> tiles_;
+  std::unordered_map<std::uint32_t, std::shared_ptr<Tile>> tiles_;  // the newest versions
   std::optional<BoundedPlane> last_plane_;
   bool fallback_found_ = false;
   double fallback_height_ = 0.0;
   int fallback_level_ = 0;
   LevelChanges pending_;
   FloorStatus status_;
+  std::uint64_t taken_ = 0;   // frame numbers given
+  std::uint64_t folded_ = 0;  // frames folded in: 0 .. folded_ - 1
+  std::uint64_t reset_at_ = 0;  // folded_ at the last reset
+  std::map<std::uint64_t, Fold> waiting_;   // measured, their turn not yet come
+  std::map<std::uint64_t, Known> known_;    // after `key` frames folded in, for the frames still to measure
 };
 
 }  // namespace octo_slice_mapper

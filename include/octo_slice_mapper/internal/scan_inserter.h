@@ -96,6 +96,7 @@ using FloorStage = std::function<FloorView(const Eigen::Vector3d& sensor, const 
 struct PreparedCloud {
   InsertResult result;             // its readings counted; error set: refused, nothing to apply
   std::vector<KeyUpdate> updates;  // combined per voxel, in tree order (sortInTreeOrder)
+  std::optional<std::uint64_t> floor_frame;  // its number at the floor layer (FloorLayer::take)
 };
 
 // One ray with its interpretation, in the map frame.
