@@ -85,6 +85,10 @@ TEST(HeightMap, HoldsTheFloorFoundAndTheTopOfWhatStandsOnIt) {
   EXPECT_EQ(same, cells);
   EXPECT_FALSE(readSaveId(prefix + "_heights.yaml").empty());
   EXPECT_EQ(readSaveId(prefix + "_heights.yaml"), readSaveId(prefix + ".bt"));
+  // The same map under another name has the same id (the .yaml files' first lines, which name
+  // the set's other files, are left out of it).
+  ASSERT_TRUE(mapper.save(dir.path() + "/other", &written, &error)) << error;
+  EXPECT_EQ(readSaveId(dir.path() + "/other.bt"), readSaveId(prefix + ".bt"));
   std::FILE* png = std::fopen((prefix + "_heights.png").c_str(), "rb");
   ASSERT_NE(png, nullptr);
   unsigned char signature[8];

@@ -108,8 +108,10 @@ bool addHeightMap(const HeightMap& map, const std::string& prefix, FileSet* file
   constexpr double kTopOfScale = 2.0;  // m above the floor: red
   const std::string name = prefix + "_heights";
   std::ostringstream yaml;
-  yaml << "# The floor found under each cell and the top of what stands on it (octo_slice_mapper).\n"
-       << "data: " << name.substr(name.find_last_of('/') + 1) << ".bin\n"
+  // The file's name first: a set's save id leaves the .yaml files' first lines out, so that the
+  // same map saved under another name keeps its id.
+  yaml << "data: " << name.substr(name.find_last_of('/') + 1) << ".bin\n"
+       << "# The floor found under each cell and the top of what stands on it (octo_slice_mapper).\n"
        << "format: float32 little-endian, the floor grid then the top grid, row by row from the bottom row\n"
        << "floor: height of the floor found (m, map frame); NaN where none was found\n"
        << "top: height above that floor of the top of the highest occupied voxel (m); NaN where none\n"
