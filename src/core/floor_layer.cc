@@ -185,8 +185,8 @@ void FloorLayer::pass(std::uint64_t frame) {
 
 namespace {
 
-// Cells (key x | key y << 16) of `keys` (-1: outside) each once, in first-seen order; `skip`
-// (in the same box) marks the ones already taken elsewhere.
+// Which cells of a box (cover() every cell first, then allocate()) were taken: a grid of flags,
+// cheaper than sorting a frame's cells to take each once.
 struct CellSet {
   int x0 = 65535, y0 = 65535, x1 = -1, y1 = -1;
   std::vector<std::uint8_t> taken;
@@ -292,14 +292,13 @@ FloorView FloorLayer::observe(std::uint64_t frame, const Eigen::Vector3d& sensor
       }
     }
   }
-  const bool fold = fresh && frame >= folded_ && !waiting_.count(frame);
   const double resolution = resolution_;
   lock.unlock();
 
-  // The frame's own floor measurements, as its fold will make them, in a copy of the view's tiles:
-  // where it sees the floor it is measured against what it sees.
+  // The frame's own floor measurements, as its fold will make them, in copies of the view's
+  // tiles: where it sees the floor it is measured against what it sees.
   if (measured.plane && !view.tiles_.empty()) {
-    std::vector<bool> own(view.tiles_.size(), false);
+    std::vector<std::shared_ptr<Tile>> own(view.tiles_.size());
     const int window_x = view.tiles_x_ << FloorView::kTileBits, window_y = view.tiles_y_ << FloorView::kTileBits;
     const int kx0 = view.tx0_ << FloorView::kTileBits, ky0 = view.ty0_ << FloorView::kTileBits;
     for (std::uint32_t c : measured.floor_cells) {
@@ -308,26 +307,25 @@ FloorView FloorLayer::observe(std::uint64_t frame, const Eigen::Vector3d& sensor
       const std::size_t t = std::size_t((ky >> FloorView::kTileBits) - view.ty0_) * view.tiles_x_ +
                             std::size_t((kx >> FloorView::kTileBits) - view.tx0_);
       if (!own[t]) {
-        auto copy = std::make_shared<Tile>();
+        own[t] = std::make_shared<Tile>();  // the data only: no versions
         if (view.tiles_[t]) {
-          std::copy(std::begin(view.tiles_[t]->height), std::end(view.tiles_[t]->height), copy->height);
-          std::copy(std::begin(view.tiles_[t]->weight), std::end(view.tiles_[t]->weight), copy->weight);
+          std::copy(std::begin(view.tiles_[t]->height), std::end(view.tiles_[t]->height), own[t]->height);
+          std::copy(std::begin(view.tiles_[t]->weight), std::end(view.tiles_[t]->weight), own[t]->weight);
         } else {
-          std::fill(std::begin(copy->height), std::end(copy->height), std::numeric_limits<float>::quiet_NaN());
-          std::fill(std::begin(copy->weight), std::end(copy->weight), std::uint8_t{0});
+          std::fill(std::begin(own[t]->height), std::end(own[t]->height), std::numeric_limits<float>::quiet_NaN());
+          std::fill(std::begin(own[t]->weight), std::end(own[t]->weight), std::uint8_t{0});
         }
-        view.tiles_[t] = copy;
-        own[t] = true;
+        view.tiles_[t] = own[t];
       }
-      Tile& tile = const_cast<Tile&>(*view.tiles_[t]);  // this view's own copy
+      Tile& tile = *own[t];
       const int i = FloorView::indexInTile(kx, ky);
       const double h = measured.plane->heightAt(floorCentreOf(kx, resolution), floorCentreOf(ky, resolution));
       tile.height[i] = static_cast<float>(measuredMean(tile.height[i], tile.weight[i], h, options));
     }
   }
-  if (fold) {
+  if (fresh) {
     lock.lock();
-    if (frame >= folded_ && !waiting_.count(frame)) {
+    if (frame >= folded_ && !waiting_.count(frame)) {  // (not passed meanwhile)
       waiting_.emplace(frame, std::move(measured));
       foldReady();
     }

@@ -115,8 +115,10 @@ class FloorView {
 // whichever frame's preparation ran first.
 class FloorLayer {
  public:
-  // A pipeline of up to kLag workers never waits for the layer (when a worker takes frame f,
-  // frames up to f - workers are done).
+  // How many frames back a frame's view of the layer stands. A pipeline of up to kLag workers
+  // never waits for the layer (when a worker takes frame f, frames up to f - workers are done);
+  // with more, a frame waits at most for the one kLag before it. A longer lag measures frames
+  // against an older floor (4 lowered a simulated loop's recall below 0.97).
   static constexpr std::uint64_t kLag = 2;
 
   FloorLayer(double resolution, const FloorOptions& options);
