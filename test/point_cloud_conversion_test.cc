@@ -11,6 +11,8 @@
 #include <random>
 #include <string>
 
+#include "octo_slice_mapper/internal/flying_pixels.h"
+
 using octo_slice_mapper::ReadingCounts;
 using octo_slice_mapper::ReadingKind;
 using namespace octo_slice_mapper::ros_adapter;
@@ -212,4 +214,44 @@ TEST(PointCloudConversion, AnOrganizedFramesFlyingPixelsAreLeftOutAndCounted) {
     }
   }
   EXPECT_EQ(k, filtered.size());
+}
+
+// On a frame with many flying pixels, holes and surfaces at random, the conversion leaves out
+// exactly the pixels the core's whole-frame rule (flagFlyingPixels) flags, and keeps the rest in
+// order: rows with several flagged pixels, next to holes, at the ends of rows.
+TEST(PointCloudConversion, TheFilteredConversionLeavesOutExactlyWhatTheRuleFlags) {
+  constexpr int kW = 41, kH = 29;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  std::vector<Eigen::Vector3f> points(kW * kH);
+  for (int v = 0; v < kH; ++v) {
+    for (int u = 0; u < kW; ++u) {
+      const float x = unit(rng);
+      const float depth = x < 0.1f ? nan : x < 0.55f ? 1.5f + 0.01f * unit(rng) : x < 0.85f ? 3.0f : 0.5f + 4.0f * unit(rng);
+      const Eigen::Vector3f ray((u - kW / 2) / 500.0f, (v - kH / 2) / 500.0f, 1.0f);
+      points[std::size_t(v) * kW + u] = ray * depth;
+    }
+  }
+  const octo_slice_mapper::FlyingPixelOptions flying;
+  std::vector<std::uint8_t> flags;
+  const std::size_t flagged = octo_slice_mapper::flagFlyingPixels(points, kW, kH, flying, &flags);
+  ASSERT_GT(flagged, std::size_t(kH));  // several per row
+  const sensor_msgs::PointCloud2 msg = organizedCloud(points, kW, kH, "camera");
+  const Eigen::Isometry3f pose(Eigen::Translation3f(1.0f, 2.0f, 0.5f) * Eigen::AngleAxisf(0.3f, Eigen::Vector3f::UnitZ()));
+  std::vector<Eigen::Vector3f> plain, filtered;
+  ReadingCounts plain_left, filtered_left;
+  cloudPointsInMap(msg, pose, &plain, &plain_left);
+  cloudPointsInMap(msg, pose, &filtered, &filtered_left, &flying);
+  EXPECT_EQ(filtered_left[ReadingKind::kFlyingPixel], flagged);
+  EXPECT_EQ(filtered_left[ReadingKind::kNaN], plain_left[ReadingKind::kNaN]);
+  std::vector<Eigen::Vector3f> expected;
+  std::size_t k = 0;  // the plain conversion's point of pixel i
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (!points[i].allFinite()) continue;
+    if (!flags[i]) expected.push_back(plain[k]);
+    ++k;
+  }
+  ASSERT_EQ(k, plain.size());
+  EXPECT_EQ(filtered, expected);
 }

@@ -18,9 +18,8 @@ std::size_t flagFlyingPixels(const std::vector<Eigen::Vector3f>& organized, int 
   const float* xyz = organized.data()->data();
   for (std::size_t i = 0; i < organized.size(); ++i) {
     const float x = xyz[3 * i], y = xyz[3 * i + 1], z = xyz[3 * i + 2];
-    range[i] = x * x + y * y + z * z;
+    range[i] = std::sqrt(x * x + y * y + z * z);  // NaN stays NaN: it is close to nothing
   }
-  rangesFromSquares(range.data(), range.size());
   flags->resize(range.size());
   std::size_t count = 0;
   for (int v = 0; v < height; ++v) {
@@ -29,11 +28,6 @@ std::size_t flagFlyingPixels(const std::vector<Eigen::Vector3f>& organized, int 
                            &(*flags)[std::size_t(v) * width]);
   }
   return count;
-}
-
-// NaN stays NaN: it is close to nothing.
-void rangesFromSquares(float* values, std::size_t count) {
-  for (std::size_t i = 0; i < count; ++i) values[i] = std::sqrt(values[i]);
 }
 
 std::size_t flagFlyingRow(const float* up, const float* mid, const float* down, int width,

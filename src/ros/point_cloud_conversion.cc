@@ -113,22 +113,22 @@ inline Eigen::Vector3f* transformOne(const Eigen::Vector3f& v, const Eigen::Matr
 }
 
 // The finite points of rows [row0, row1) read with `read(point_bytes)`, in the map frame, in
-// order from `out` on; the others counted. Returns the end of the points written. With `skip`
-// (one byte per point of a single row: row1 = row0 + 1), the flagged points are left out
-// uncounted (the caller counts them).
+// order from `out` on; the others counted. Returns the end of the points written. With `ranges`
+// (one float per point of a single row: row1 = row0 + 1), each point's distance from the sensor
+// (its coordinates' norm; NaN or infinite for a non-finite point) is written there too.
 template <typename Read>
 Eigen::Vector3f* transformPoints(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry3f& to_map, Read read,
                                  Eigen::Vector3f* out, ReadingCounts* left_out, std::uint32_t row0, std::uint32_t row1,
-                                 const std::uint8_t* skip) {
+                                 float* ranges) {
   const Eigen::Matrix3f rotation = to_map.linear();
   const Eigen::Vector3f translation = to_map.translation();
   for (std::uint32_t row = row0; row < row1; ++row) {
     const std::uint8_t* p = msg.data.data() + std::size_t(row) * msg.row_step;
-    const std::uint8_t* row_skip = skip ? skip + std::size_t(row - row0) * msg.width : nullptr;
     for (std::uint32_t col = 0; col < msg.width; ++col, p += msg.point_step) {
       prefetchAhead(p);
-      if (row_skip && row_skip[col]) continue;
-      out = transformOne(read(p), rotation, translation, out, left_out);
+      const Eigen::Vector3f v = read(p);
+      if (ranges) ranges[col] = std::sqrt(v.x() * v.x() + v.y() * v.y() + v.z() * v.z());
+      out = transformOne(v, rotation, translation, out, left_out);
     }
   }
   return out;
@@ -142,10 +142,10 @@ Eigen::Vector3f* transformPoints(const sensor_msgs::PointCloud2& msg, const Eige
 // multiply-add), so the same floats
 // (PointCloudConversion.PointsAreTheRotationAndTranslationToTheBit). Eigen's product of one point
 // took ~33 instructions, a third of them shuffles.
-// Rows [row0, row1) and `skip` as transformPoints'.
+// Rows [row0, row1) and `ranges` as transformPoints'.
 Eigen::Vector3f* transformXyzIn16Bytes(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry3f& to_map,
                                        Eigen::Vector3f* out, ReadingCounts* left_out, std::uint32_t row0,
-                                       std::uint32_t row1, const std::uint8_t* skip) {
+                                       std::uint32_t row1, float* ranges) {
   const Eigen::Matrix3f rotation = to_map.linear();
   const Eigen::Vector3f translation = to_map.translation();
   __m128 r[3][3], t[3];
@@ -158,24 +158,25 @@ Eigen::Vector3f* transformXyzIn16Bytes(const sensor_msgs::PointCloud2& msg, cons
     std::memcpy(c, p, sizeof c);
     out = transformOne(Eigen::Vector3f(c[0], c[1], c[2]), rotation, translation, out, left_out);
   };
+  const auto rangeOf = [](const std::uint8_t* p) {
+    float c[3];
+    std::memcpy(c, p, sizeof c);
+    return std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+  };
   const std::uint32_t width = msg.width;
   std::uint64_t nans = 0, non_finite = 0;  // in groups of four without a finite point
   for (std::uint32_t row = row0; row < row1; ++row) {
     const std::uint8_t* p = msg.data.data() + std::size_t(row) * msg.row_step;
-    const std::uint8_t* skipped = skip ? skip + std::size_t(row - row0) * width : nullptr;
     std::uint32_t col = 0;
     for (; col + 4 <= width; col += 4, p += 64) {
       prefetchAhead(p);
-      std::uint32_t flagged;  // four flags at once: a flying pixel is rare
-      if (skipped && (std::memcpy(&flagged, skipped + col, 4), flagged != 0)) {
-        for (int k = 0; k < 4; ++k) {
-          if (!skipped[col + k]) one(p + 16 * k);
-        }
-        continue;
-      }
       const float* f = reinterpret_cast<const float*>(p);
       __m128 x = _mm_loadu_ps(f), y = _mm_loadu_ps(f + 4), z = _mm_loadu_ps(f + 8), w = _mm_loadu_ps(f + 12);
       _MM_TRANSPOSE4_PS(x, y, z, w);  // the four points' x, y and z
+      if (ranges) {  // std::sqrt's rounding, (x x + y y) + z z as the scalar sum
+        _mm_storeu_ps(ranges + col,
+                      _mm_sqrt_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(x, x), _mm_mul_ps(y, y)), _mm_mul_ps(z, z))));
+      }
       // v - v is NaN for a NaN or infinite v.
       const __m128 finite = _mm_and_ps(_mm_cmpord_ps(_mm_sub_ps(x, x), _mm_sub_ps(y, y)),
                                        _mm_cmpord_ps(_mm_sub_ps(z, z), _mm_sub_ps(z, z)));
@@ -206,7 +207,8 @@ Eigen::Vector3f* transformXyzIn16Bytes(const sensor_msgs::PointCloud2& msg, cons
       out += 4;
     }
     for (; col < width; ++col, p += 16) {
-      if (!skipped || !skipped[col]) one(p);
+      if (ranges) ranges[col] = rangeOf(p);
+      one(p);
     }
   }
   (*left_out)[ReadingKind::kNaN] += nans;
@@ -227,11 +229,12 @@ void cloudPointsInMap(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry
   const bool all_float = fx.datatype == sensor_msgs::PointField::FLOAT32 &&
                          fy.datatype == sensor_msgs::PointField::FLOAT32 && fz.datatype == sensor_msgs::PointField::FLOAT32;
   const bool xyz16 = all_float && fx.offset == 0 && fy.offset == 4 && fz.offset == 8 && msg.point_step == 16;
-  // The transform of rows [row0, row1), its points written from `out` on.
-  const auto transformRows = [&](std::uint32_t row0, std::uint32_t row1, const std::uint8_t* skip,
+  // The transform of rows [row0, row1), its points written from `out` on (and with `ranges`, one
+  // row's ranges).
+  const auto transformRows = [&](std::uint32_t row0, std::uint32_t row1, float* ranges,
                                  Eigen::Vector3f* out) -> Eigen::Vector3f* {
 #if defined(__SSE2__)
-    if (xyz16) return transformXyzIn16Bytes(msg, to_map, out, left_out, row0, row1, skip);
+    if (xyz16) return transformXyzIn16Bytes(msg, to_map, out, left_out, row0, row1, ranges);
 #endif
     if (all_float) {  // what cameras send: no per-coordinate type test (a third of the conversion)
       const std::uint32_t ox = fx.offset, oy = fy.offset, oz = fz.offset;
@@ -241,59 +244,57 @@ void cloudPointsInMap(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry
         std::memcpy(&y, p + oy, sizeof y);
         std::memcpy(&z, p + oz, sizeof z);
         return Eigen::Vector3f(x, y, z);
-      }, out, left_out, row0, row1, skip);
+      }, out, left_out, row0, row1, ranges);
     }
     return transformPoints(msg, to_map, [&](const std::uint8_t* p) {
       return Eigen::Vector3f(coordinate(p, fx), coordinate(p, fy), coordinate(p, fz));
-    }, out, left_out, row0, row1, skip);
+    }, out, left_out, row0, row1, ranges);
   };
   if (!flying || !flying->enabled || msg.height < 3 || msg.width < 3) {
     Eigen::Vector3f* end = transformRows(0, msg.height, nullptr, points->data());
     points->resize(static_cast<std::size_t>(end - points->data()));
     return;
   }
-  // An organized frame's flying pixels, streamed: row v's ranges are taken (sensor frame) while
-  // row v - 1 is judged against its neighbours and moved, its flying pixels left out. Three rows
-  // of ranges and one of flags, per thread and kept: a frame's worth of each cost a pass of
-  // memory and its page faults.
+  // An organized frame's flying pixels, in the same pass: each row is moved with its ranges kept
+  // (three rows of them, per thread), and once the row below it is, the row before is judged and
+  // its flying pixels taken out of the points it wrote (rare: the row's and the next row's points
+  // move up).
   const std::uint32_t width = msg.width;
   thread_local std::vector<float> rows;
   thread_local std::vector<std::uint8_t> flags;
   rows.resize(3 * std::size_t(width));
-  flags.resize(std::size_t(width) * msg.height);
-  const auto rangesOf = [&](std::uint32_t row, float* range) {
-    const std::uint8_t* p = msg.data.data() + std::size_t(row) * msg.row_step;
-    std::uint32_t col = 0;
-#if defined(__SSE2__)
-    if (xyz16) {
-      for (; col + 4 <= width; col += 4, p += 64) {  // four points at a time
-        prefetchAhead(p);
-        const float* f = reinterpret_cast<const float*>(p);
-        __m128 x = _mm_loadu_ps(f), y = _mm_loadu_ps(f + 4), z = _mm_loadu_ps(f + 8), w = _mm_loadu_ps(f + 12);
-        _MM_TRANSPOSE4_PS(x, y, z, w);
-        const __m128 squared = _mm_add_ps(_mm_add_ps(_mm_mul_ps(x, x), _mm_mul_ps(y, y)), _mm_mul_ps(z, z));
-        _mm_storeu_ps(range + col, _mm_sqrt_ps(squared));  // correctly rounded, as std::sqrt
-      }
-    }
-#endif
-    const std::uint32_t rest = col;
-    for (; col < width; ++col, p += msg.point_step) {
-      const float x = coordinate(p, fx), y = coordinate(p, fy), z = coordinate(p, fz);
-      range[col] = x * x + y * y + z * z;
-    }
-    rangesFromSquares(range + rest, width - rest);
-  };
+  flags.resize(width);
   const auto slot = [&](std::uint32_t row) { return &rows[std::size_t(row % 3) * width]; };
+  // Whether a point was written: the transform's own test, on the coordinates as it reads them.
+  const auto written = [&](std::uint32_t row, std::uint32_t col) {
+    const std::uint8_t* p = msg.data.data() + std::size_t(row) * msg.row_step + std::size_t(col) * msg.point_step;
+    return Eigen::Vector3f(coordinate(p, fx), coordinate(p, fy), coordinate(p, fz)).allFinite();
+  };
   Eigen::Vector3f* end = points->data();
+  Eigen::Vector3f* previous_start = end;  // where the row before this one's points begin
   std::uint64_t flying_count = 0;
-  rangesOf(0, slot(0));
   for (std::uint32_t row = 0; row < msg.height; ++row) {
-    if (row + 1 < msg.height) rangesOf(row + 1, slot(row + 1));
-    const float* up = row > 0 ? slot(row - 1) : nullptr;
-    const float* down = row + 1 < msg.height ? slot(row + 1) : nullptr;
-    flying_count += flagFlyingRow(up, slot(row), down, int(width), *flying, &flags[std::size_t(row) * width]);
+    Eigen::Vector3f* start = end;
+    end = transformRows(row, row + 1, slot(row), end);
+    if (row < 2) {  // the first row is kept (a border row)
+      previous_start = start;
+      continue;
+    }
+    if (flagFlyingRow(slot(row - 2), slot(row - 1), slot(row), int(width), *flying, flags.data())) {
+      Eigen::Vector3f* kept = previous_start;
+      Eigen::Vector3f* read = previous_start;
+      for (std::uint32_t col = 0; col < width; ++col) {
+        if (!written(row - 1, col)) continue;  // counted by the transform already
+        if (flags[col]) ++flying_count;
+        else *kept++ = *read;
+        ++read;
+      }
+      std::memmove(static_cast<void*>(kept), start, static_cast<std::size_t>(end - start) * sizeof(Eigen::Vector3f));
+      end = kept + (end - start);
+      start = kept;
+    }
+    previous_start = start;
   }
-  end = transformRows(0, msg.height, flags.data(), end);
   (*left_out)[ReadingKind::kFlyingPixel] += flying_count;
   points->resize(static_cast<std::size_t>(end - points->data()));
 }

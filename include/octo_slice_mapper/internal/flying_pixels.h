@@ -27,10 +27,9 @@ std::size_t flagFlyingPixels(const std::vector<Eigen::Vector3f>& organized, int 
                              const FlyingPixelOptions& options, std::vector<std::uint8_t>* flags);
 
 // The same a row at a time, for a caller that streams a frame through a few rows of memory:
-// squared ranges (x^2 + y^2 + z^2 in the sensor frame; NaN where no depth) made ranges in place,
-// and one row's flags (`width` bytes) from its ranges and its neighbours' (null above the first
-// or below the last row: that row is kept). Returns the row's flying pixels.
-void rangesFromSquares(float* values, std::size_t count);
+// one row's flags (`width` bytes) from its ranges (sqrt(x^2 + y^2 + z^2) in the sensor frame;
+// NaN where no depth) and its neighbours' (null above the first or below the last row: that row
+// is kept). Returns the row's flying pixels.
 std::size_t flagFlyingRow(const float* up, const float* row, const float* down, int width,
                           const FlyingPixelOptions& options, std::uint8_t* flags);
 
