@@ -73,13 +73,13 @@ TEST(FlyingPixels, OffOrNotOrganizedFlagsNothing) {
   EXPECT_EQ(flagFlyingPixels(frameOf(depth), kW * kH, 1, {}, &flags), 0u);  // an unorganized cloud
 }
 
-// The row judge (four pixels at a time, the six other neighbours looked at only where the two in
-// the row do not already make min_neighbours) flags exactly what the rule says, pixel by pixel:
-// random ranges with depth edges, noise and holes, for one, two and three neighbours needed.
+// The row judge flags exactly what the rule says, pixel by pixel: random ranges with depth edges,
+// noise and holes, for one, two and three neighbours needed, in a row whose length is not a
+// multiple of a vector's.
 TEST(FlyingPixels, TheRowJudgeFlagsExactlyWhatTheRuleSays) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<float> unit(0.0f, 1.0f);
-  const int width = 71;  // not a multiple of four: the last pixels go one at a time
+  const int width = 71;
   std::vector<float> rows(3 * width);
   for (int trial = 0; trial < 300; ++trial) {
     for (float& r : rows) {

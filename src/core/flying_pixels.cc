@@ -3,10 +3,6 @@
 #include <algorithm>
 #include <cmath>
 
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
-
 namespace octo_slice_mapper {
 
 std::size_t flagFlyingPixels(const std::vector<Eigen::Vector3f>& organized, int width, int height,
@@ -39,33 +35,8 @@ std::size_t flagFlyingRow(const float* up, const float* mid, const float* down, 
   const float base = static_cast<float>(options.gap_base), per_metre = static_cast<float>(options.gap_per_metre);
   const int needed = options.min_neighbours;
   std::size_t count = 0;
-  int u = 1;
-#if defined(__SSE2__)
-  // Four pixels at a time. Most pixels lie on a surface with both row neighbours close: when
-  // those two already reach min_neighbours for all four, the other six are not looked at.
-  const __m128 vbase = _mm_set1_ps(base), vper = _mm_set1_ps(per_metre), one = _mm_set1_ps(1.0f);
-  const __m128 vneeded = _mm_set1_ps(static_cast<float>(needed));
-  const __m128 sign = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
-  const auto close = [&](const float* n, __m128 r, __m128 gap) {  // 1.0f where |n - r| <= gap, else 0
-    return _mm_and_ps(_mm_cmple_ps(_mm_and_ps(_mm_sub_ps(_mm_loadu_ps(n), r), sign), gap), one);
-  };
-  for (; u + 4 < width; u += 4) {
-    const __m128 r = _mm_loadu_ps(mid + u);
-    const __m128 gap = _mm_add_ps(vbase, _mm_mul_ps(vper, r));
-    __m128 n = _mm_add_ps(close(mid + u - 1, r, gap), close(mid + u + 1, r, gap));
-    const __m128 measured = _mm_cmpord_ps(r, r);  // NaN (no measurement) is never flagged
-    if (_mm_movemask_ps(_mm_and_ps(_mm_cmplt_ps(n, vneeded), measured)) == 0) continue;  // all four kept
-    n = _mm_add_ps(n, _mm_add_ps(close(up + u - 1, r, gap), close(up + u, r, gap)));
-    n = _mm_add_ps(n, _mm_add_ps(close(up + u + 1, r, gap), close(down + u - 1, r, gap)));
-    n = _mm_add_ps(n, _mm_add_ps(close(down + u, r, gap), close(down + u + 1, r, gap)));
-    const int flying = _mm_movemask_ps(_mm_and_ps(_mm_cmplt_ps(n, vneeded), measured));
-    for (int k = 0; k < 4; ++k) {
-      out[u + k] = static_cast<std::uint8_t>((flying >> k) & 1);
-      count += (flying >> k) & 1;
-    }
-  }
-#endif
-  for (; u + 1 < width; ++u) {
+  // Branch-free per pixel, so that the compiler takes several at a time (-O3: CMakeLists.txt).
+  for (int u = 1; u + 1 < width; ++u) {
     const float r = mid[u], gap = base + per_metre * r;
     const int close = (std::abs(up[u - 1] - r) <= gap) + (std::abs(up[u] - r) <= gap) +
                       (std::abs(up[u + 1] - r) <= gap) + (std::abs(mid[u - 1] - r) <= gap) +
