@@ -99,13 +99,8 @@ TEST(HeightMap, HoldsTheFloorFoundAndTheTopOfWhatStandsOnIt) {
 
 TEST(HeightMap, AMapWithoutAFloorFoundSavesNone) {
   Mapper mapper{MapperOptions()};
-  Scan scan;
-  scan.sensor_pose.translation() = Eigen::Vector3d(0.0, 0.0, 0.26);
-  scan.angle_min = -1.0f;
-  scan.angle_increment = 0.01f;
-  scan.range_min = 0.1f;
-  scan.range_max = 10.0f;
-  scan.ranges.assign(200, 3.0f);
+  const Scan scan = test_support::makeScan(Eigen::Isometry3d(Eigen::Translation3d(0.0, 0.0, 0.26)), -1.0f, 0.01f,
+                                           std::vector<float>(200, 3.0f), 0.1f, 10.0f);
   ASSERT_TRUE(mapper.insert(scan).ok());
   EXPECT_TRUE(heightMapOf(mapper.tree(), mapper.floor(), gridImageOf(mapper.slice())).empty());
   TempDir dir;
