@@ -98,8 +98,6 @@ class SliceGrid {
     return int(hi) >= int(band_lo_) + shift_min_ && int(lo) <= int(band_hi_) + shift_max_;
   }
   void findBandLayers();
-  // The node at `depth` holding (kx, ky, kz), or a leaf above it, or null.
-  const octomap::OcTreeNode* descendTo(std::uint16_t kx, std::uint16_t ky, std::uint16_t kz, unsigned depth) const;
   // The voxel (kx, ky, kz) below `top`, the node at `top_depth` holding it.
   const octomap::OcTreeNode* bandVoxel(const octomap::OcTreeNode* top, std::uint16_t kx, std::uint16_t ky, unsigned kz,
                                        unsigned top_depth) const;

@@ -92,13 +92,6 @@ void SliceGrid::clear() {
   layer_may_be_known_.assign(layer_may_be_known_.size(), false);
 }
 
-// OctoMap's search takes depth 0 for "all the way down": a band whose keys differ in their top
-// bit (one across z = 0) shares only the root.
-const octomap::OcTreeNode* SliceGrid::descendTo(std::uint16_t kx, std::uint16_t ky, std::uint16_t kz,
-                                                unsigned depth) const {
-  return depth == 0 ? tree_.getRoot() : tree_.search(octomap::OcTreeKey(kx, ky, kz), depth);
-}
-
 // One voxel's value from the tree: a descent from `top`, the deepest node holding the column's band.
 const octomap::OcTreeNode* SliceGrid::bandVoxel(const octomap::OcTreeNode* top, std::uint16_t kx, std::uint16_t ky,
                                                 unsigned kz, unsigned top_depth) const {
@@ -122,7 +115,8 @@ unsigned bitLength(unsigned v) {
 
 // The deepest nodes holding a column's layers [lo, hi], each found when first needed: one, or
 // one per half where the layers straddle a boundary high in the tree (z = 0 is the root's own),
-// so that no layer is read from the root down.
+// so that no layer is read from the root down. A part's keys share at least their top bit, so
+// its depth is at least 1 (OctoMap's search reads depth 0 as "all the way down").
 class SliceGrid::ColumnDescent {
  public:
   ColumnDescent(const SliceGrid& grid, std::uint16_t kx, std::uint16_t ky, unsigned lo, unsigned hi)
@@ -130,12 +124,12 @@ class SliceGrid::ColumnDescent {
     const unsigned bits = bitLength(lo ^ hi);
     mid_ = bits == 0 ? hi + 1 : (hi >> (bits - 1)) << (bits - 1);  // the upper half's first key
     parts_[0] = partOf(lo, std::min(hi, mid_ - 1));
-    parts_[1] = partOf(mid_, hi);
+    if (bits > 0) parts_[1] = partOf(mid_, hi);  // else no key reaches it
   }
   const octomap::OcTreeNode* voxel(unsigned kz) {
     Part& part = parts_[kz < mid_ ? 0 : 1];
     if (!part.searched) {
-      part.top = grid_.descendTo(kx_, ky_, std::uint16_t(part.lo), part.depth);
+      part.top = grid_.tree_.search(octomap::OcTreeKey(kx_, ky_, std::uint16_t(part.lo)), part.depth);
       part.searched = true;
     }
     return part.top ? grid_.bandVoxel(part.top, kx_, ky_, kz, part.depth) : nullptr;
