@@ -87,6 +87,35 @@ TEST_F(TumSequenceTest, DepthPngsReadBackAndBackProjectThroughThePinhole) {
   EXPECT_NE(error.find("16-bit"), std::string::npos) << error;
 }
 
+TEST(TumSequence, ADistortedLensIsUndistortedAsTheCalibrationSays) {
+  // freiburg1's coefficients: the ray back-projected from a pixel, distorted again, lands on the
+  // pixel, across the image, its corners (the strongest distortion) included.
+  const DepthIntrinsics k = DepthIntrinsics::freiburg1();
+  ASSERT_TRUE(k.distorted());
+  for (int v = 0; v < 480; v += 479 / 7) {
+    for (int u = 0; u < 640; u += 639 / 9) {
+      const Eigen::Vector2d pinhole((u - k.cx) / k.fx, (v - k.cy) / k.fy);
+      const Eigen::Vector2d ray = undistortRay(pinhole, k);
+      EXPECT_NEAR((distortRay(ray, k) - pinhole).norm(), 0.0, 1e-9) << "pixel " << u << ", " << v;
+    }
+  }
+  // Radial distortion grows outwards: the corner's ray differs from the pinhole's, the centre's not.
+  EXPECT_GT((undistortRay({-k.cx / k.fx, -k.cy / k.fy}, k) - Eigen::Vector2d(-k.cx / k.fx, -k.cy / k.fy)).norm(), 0.01);
+  EXPECT_NEAR(undistortRay({0.0, 0.0}, k).norm(), 0.0, 1e-12);
+
+  // depthPoints uses the undistorted rays: a pixel at 2 m, distorted back, is the pixel.
+  const int width = 640, height = 480;
+  std::vector<std::uint16_t> pixels(std::size_t(width) * height, 10000);
+  const std::vector<Eigen::Vector3f> points = depthPoints(width, height, pixels, k);
+  for (const auto& uv : {std::pair<int, int>{0, 0}, {639, 479}, {320, 240}, {10, 400}}) {
+    const Eigen::Vector3f& p = points[std::size_t(uv.second) * width + uv.first];
+    EXPECT_FLOAT_EQ(p.z(), 2.0f);
+    const Eigen::Vector2d pixel = distortRay(Eigen::Vector2d(p.x() / 2.0, p.y() / 2.0), k);
+    EXPECT_NEAR(pixel.x() * k.fx + k.cx, uv.first, 1e-3);
+    EXPECT_NEAR(pixel.y() * k.fy + k.cy, uv.second, 1e-3);
+  }
+}
+
 TEST_F(TumSequenceTest, PosesTxtGivesEachImageInNameOrderItsPose) {
   write("poses.txt", "10.0 1 2 3 0 0 0 1\n10.5 4 5 6 0 0 0.7071068 0.7071068\n");
   writeDepthPng(dir_ + "/depth/0001_depth_raw.png", 1, 1, {1});

@@ -146,20 +146,66 @@ bool readDepthPng(const std::string& path, int* width, int* height, std::vector<
   return true;
 }
 
+Eigen::Vector2d distortRay(const Eigen::Vector2d& ray, const DepthIntrinsics& k) {
+  const double x = ray.x(), y = ray.y(), r2 = x * x + y * y;
+  const double radial = 1.0 + r2 * (k.k1 + r2 * (k.k2 + r2 * k.k3));
+  return {x * radial + 2.0 * k.p1 * x * y + k.p2 * (r2 + 2.0 * x * x),
+          y * radial + k.p1 * (r2 + 2.0 * y * y) + 2.0 * k.p2 * x * y};
+}
+
+Eigen::Vector2d undistortRay(const Eigen::Vector2d& distorted, const DepthIntrinsics& k) {
+  Eigen::Vector2d ray = distorted;
+  for (int round = 0; round < 100; ++round) {
+    const double x = ray.x(), y = ray.y(), r2 = x * x + y * y;
+    const double radial = 1.0 + r2 * (k.k1 + r2 * (k.k2 + r2 * k.k3));
+    const Eigen::Vector2d tangential(2.0 * k.p1 * x * y + k.p2 * (r2 + 2.0 * x * x),
+                                     k.p1 * (r2 + 2.0 * y * y) + 2.0 * k.p2 * x * y);
+    const Eigen::Vector2d next = (distorted - tangential) / radial;
+    const bool settled = (next - ray).norm() < 1e-12;
+    ray = next;
+    if (settled) break;
+  }
+  return ray;
+}
+
+namespace {
+
+// Each pixel's undistorted ray (x, y), row by row; worked out once per camera and image size (a
+// sequence's frames share them).
+const std::vector<Eigen::Vector2d>& raysOf(int width, int height, const DepthIntrinsics& k) {
+  thread_local std::vector<Eigen::Vector2d> rays;
+  thread_local int rays_width = -1, rays_height = -1;
+  thread_local DepthIntrinsics rays_of;
+  const auto same = [](const DepthIntrinsics& a, const DepthIntrinsics& b) {
+    return a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy && a.k1 == b.k1 && a.k2 == b.k2 &&
+           a.p1 == b.p1 && a.p2 == b.p2 && a.k3 == b.k3;
+  };
+  if (rays_width == width && rays_height == height && same(rays_of, k)) return rays;
+  rays.resize(std::size_t(width) * height);
+  for (int v = 0; v < height; ++v) {
+    for (int u = 0; u < width; ++u) {
+      const Eigen::Vector2d pinhole((u - k.cx) / k.fx, (v - k.cy) / k.fy);
+      rays[std::size_t(v) * width + u] = k.distorted() ? undistortRay(pinhole, k) : pinhole;
+    }
+  }
+  rays_width = width, rays_height = height, rays_of = k;
+  return rays;
+}
+
+}  // namespace
+
 std::vector<Eigen::Vector3f> depthPoints(int width, int height, const std::vector<std::uint16_t>& pixels,
                                          const DepthIntrinsics& k) {
   std::vector<Eigen::Vector3f> points(std::size_t(width) * height);
+  const std::vector<Eigen::Vector2d>& rays = raysOf(width, height, k);
   const float nan = std::numeric_limits<float>::quiet_NaN();
-  for (int v = 0; v < height; ++v) {
-    for (int u = 0; u < width; ++u) {
-      const std::size_t i = std::size_t(v) * width + u;
-      if (pixels[i] == 0) {
-        points[i] = Eigen::Vector3f(nan, nan, nan);
-        continue;
-      }
-      const double d = pixels[i] / k.units_per_metre;
-      points[i] = Eigen::Vector3f(float((u - k.cx) * d / k.fx), float((v - k.cy) * d / k.fy), float(d));
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (pixels[i] == 0) {
+      points[i] = Eigen::Vector3f(nan, nan, nan);
+      continue;
     }
+    const double d = pixels[i] / k.units_per_metre;
+    points[i] = Eigen::Vector3f(float(rays[i].x() * d), float(rays[i].y() * d), float(d));
   }
   return points;
 }

@@ -12,14 +12,27 @@
 namespace octo_slice_mapper {
 namespace tools {
 
-// A pinhole depth camera: pixel (u, v) with depth d (m) is the point ((u - cx) d / fx, (v - cy) d / fy, d)
-// in the optical frame (x right, y down, z forward).
+// A depth camera with the plumb-bob lens model (ROS's camera_info, OpenCV's): pixel (u, v) with depth d (m)
+// is the point (x d, y d, d) in the optical frame (x right, y down, z forward), where (x, y) is the
+// undistorted ray whose distortion by k1, k2, p1, p2, k3 lands on ((u - cx) / fx, (v - cy) / fy).
+// Zero coefficients: a pinhole, x = (u - cx) / fx.
 struct DepthIntrinsics {
   double fx = 0.0, fy = 0.0, cx = 0.0, cy = 0.0;
   double units_per_metre = 5000.0;  // TUM's depth scale
-  static DepthIntrinsics freiburg1() { return {517.3, 516.5, 318.6, 255.3}; }
+  double k1 = 0.0, k2 = 0.0, p1 = 0.0, p2 = 0.0, k3 = 0.0;
+  // freiburg1's images are not undistorted: its calibration's coefficients are applied here, as a
+  // ROS driver's rectification would. freiburg3's images are undistorted already.
+  static DepthIntrinsics freiburg1() {
+    return {517.3, 516.5, 318.6, 255.3, 5000.0, 0.2624, -0.9531, -0.0054, 0.0026, 1.1633};
+  }
   static DepthIntrinsics freiburg3() { return {535.4, 539.2, 320.1, 247.6}; }
+  bool distorted() const { return k1 != 0.0 || k2 != 0.0 || p1 != 0.0 || p2 != 0.0 || k3 != 0.0; }
 };
+
+// The plumb-bob distortion of the undistorted ray (x, y): where it lands on the normalized image.
+Eigen::Vector2d distortRay(const Eigen::Vector2d& ray, const DepthIntrinsics& k);
+// Its inverse, by fixed-point iteration (as OpenCV's undistortPoints), to 1e-12 or 100 rounds.
+Eigen::Vector2d undistortRay(const Eigen::Vector2d& distorted, const DepthIntrinsics& k);
 
 struct DepthFrame {
   double stamp = 0.0;        // s
