@@ -116,6 +116,32 @@ TEST(TumSequence, ADistortedLensIsUndistortedAsTheCalibrationSays) {
   }
 }
 
+TEST(TumSequence, CamerasAreNamedOrGivenByTheirIntrinsics) {
+  DepthIntrinsics k;
+  k.units_per_metre = 1000.0;
+  std::string error;
+  ASSERT_TRUE(parseDepthIntrinsics("freiburg2", &k, &error)) << error;
+  EXPECT_EQ(k.fx, DepthIntrinsics::freiburg2().fx);
+  EXPECT_TRUE(k.distorted());
+  EXPECT_EQ(k.units_per_metre, 1000.0) << "the depth scale is not the camera's";
+  ASSERT_TRUE(parseDepthIntrinsics("525,525.5,319.5,239.5", &k, &error)) << error;
+  EXPECT_EQ(k.fy, 525.5);
+  EXPECT_EQ(k.cy, 239.5);
+  EXPECT_FALSE(k.distorted());
+  ASSERT_TRUE(parseDepthIntrinsics("500,500,320,240,0.1,-0.2,0.001,0.002,0.3", &k, &error)) << error;
+  EXPECT_EQ(k.k1, 0.1);
+  EXPECT_EQ(k.p2, 0.002);
+  EXPECT_EQ(k.k3, 0.3);
+  const DepthIntrinsics before = k;
+  for (const char* bad : {"freiburg4", "525,525,319.5", "525,525,319.5,x", "0,525,319.5,239.5", "525,525,,239.5",
+                          "500,500,320,240,0.1"}) {
+    error.clear();
+    EXPECT_FALSE(parseDepthIntrinsics(bad, &k, &error)) << bad;
+    EXPECT_FALSE(error.empty()) << bad;
+    EXPECT_EQ(k.fx, before.fx) << "a refused camera leaves the intrinsics as they were";
+  }
+}
+
 TEST_F(TumSequenceTest, PosesTxtGivesEachImageInNameOrderItsPose) {
   write("poses.txt", "10.0 1 2 3 0 0 0 1\n10.5 4 5 6 0 0 0.7071068 0.7071068\n");
   writeDepthPng(dir_ + "/depth/0001_depth_raw.png", 1, 1, {1});

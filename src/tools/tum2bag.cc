@@ -1,10 +1,13 @@
 // tum2bag: a TUM RGB-D sequence (depth PNGs and motion-capture poses) as a rosbag of organized
 // PointCloud2 frames and tf, so that octo_slice_map and replay.launch map real depth cameras:
 //
-//   tum2bag FOLDER OUT.bag [--camera freiburg1|freiburg3] [--lower M] [--tilt DEG] [--fixed-frame odom]
+//   tum2bag FOLDER OUT.bag [--camera freiburg1|freiburg2|freiburg3|fx,fy,cx,cy[,k1,k2,p1,p2,k3]]
+//           [--depth-scale UNITS_PER_METRE] [--lower M] [--tilt DEG] [--fixed-frame odom]
 //   octo_slice_map --bag OUT.bag --scan-topic '' --cloud-topic /camera/depth/points
 //       --slice-min-z 0.05 --slice-max-z 0.80
 //
+// --camera names the TUM benchmark's camera (freiburg3 by default) or gives another's intrinsics
+// (pixels) and plumb-bob lens coefficients; --depth-scale is the depth PNGs' units per metre (5000).
 // --lower M moves the world down by M (the floor at z = -M) and --tilt DEG turns it about the
 // x axis: the same frames in another fixed frame, as a robot whose odometry origin is not on the
 // floor, or whose camera mount is off by a degree or two, would record them.
@@ -25,18 +28,20 @@
 namespace {
 
 const char kUsage[] =
-    "usage: tum2bag FOLDER OUT.bag [--camera freiburg1|freiburg3] [--lower M] [--tilt DEG] [--fixed-frame odom]\n";
+    "usage: tum2bag FOLDER OUT.bag [--camera freiburg1|freiburg2|freiburg3|fx,fy,cx,cy[,k1,k2,p1,p2,k3]]\n"
+    "               [--depth-scale UNITS_PER_METRE] [--lower M] [--tilt DEG] [--fixed-frame odom]\n";
 
 }  // namespace
 
 int main(int argc, char** argv) {
   namespace tools = octo_slice_mapper::tools;
   std::string folder, bag_path, camera = "freiburg3", fixed_frame = "odom";
-  double lower = 0.0, tilt_deg = 0.0;
+  double lower = 0.0, tilt_deg = 0.0, depth_scale = 5000.0;
   try {
     for (int i = 1; i < argc; ++i) {
       const std::string arg = argv[i];
       if (arg == "--camera" && i + 1 < argc) camera = argv[++i];
+      else if (arg == "--depth-scale" && i + 1 < argc) depth_scale = std::stod(argv[++i]);
       else if (arg == "--lower" && i + 1 < argc) lower = std::stod(argv[++i]);
       else if (arg == "--tilt" && i + 1 < argc) tilt_deg = std::stod(argv[++i]);
       else if (arg == "--fixed-frame" && i + 1 < argc) fixed_frame = argv[++i];
@@ -48,14 +53,18 @@ int main(int argc, char** argv) {
     std::cerr << kUsage;
     return 2;
   }
-  if (folder.empty() || bag_path.empty() || (camera != "freiburg1" && camera != "freiburg3")) {
+  if (folder.empty() || bag_path.empty()) {
     std::cerr << kUsage;
     return 2;
   }
-  const tools::DepthIntrinsics intrinsics =
-      camera == "freiburg1" ? tools::DepthIntrinsics::freiburg1() : tools::DepthIntrinsics::freiburg3();
-  std::vector<tools::DepthFrame> frames;
   std::string error;
+  tools::DepthIntrinsics intrinsics;
+  intrinsics.units_per_metre = depth_scale;
+  if (!(depth_scale > 0.0) || !tools::parseDepthIntrinsics(camera, &intrinsics, &error)) {
+    std::cerr << "tum2bag: " << (depth_scale > 0.0 ? error : "--depth-scale must be > 0") << "\n" << kUsage;
+    return 2;
+  }
+  std::vector<tools::DepthFrame> frames;
   if (!tools::readTumSequence(folder, &frames, &error)) {
     std::cerr << "tum2bag: " << error << "\n";
     return 1;

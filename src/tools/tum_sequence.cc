@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <dirent.h>
 #include <fstream>
 #include <limits>
@@ -143,6 +144,43 @@ bool readDepthPng(const std::string& path, int* width, int* height, std::vector<
   png_read_end(png, nullptr);
   png_destroy_read_struct(&png, &info, nullptr);
   std::fclose(f);
+  return true;
+}
+
+bool parseDepthIntrinsics(const std::string& text, DepthIntrinsics* intrinsics, std::string* error) {
+  const double units = intrinsics->units_per_metre;
+  if (text == "freiburg1" || text == "freiburg2" || text == "freiburg3") {
+    *intrinsics = text == "freiburg1"   ? DepthIntrinsics::freiburg1()
+                  : text == "freiburg2" ? DepthIntrinsics::freiburg2()
+                                        : DepthIntrinsics::freiburg3();
+    intrinsics->units_per_metre = units;
+    return true;
+  }
+  std::vector<double> values;
+  std::istringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    char* end = nullptr;
+    const double v = std::strtod(item.c_str(), &end);
+    if (item.empty() || *end != '\0' || !std::isfinite(v)) {
+      *error = "camera '" + text + "': '" + item + "' is not a number";
+      return false;
+    }
+    values.push_back(v);
+  }
+  if (values.size() != 4 && values.size() != 9) {
+    *error = "camera '" + text + "': not freiburg1, freiburg2, freiburg3, \"fx,fy,cx,cy\" or \"fx,fy,cx,cy,k1,k2,p1,p2,k3\"";
+    return false;
+  }
+  if (!(values[0] > 0.0 && values[1] > 0.0)) {
+    *error = "camera '" + text + "': the focal lengths must be > 0";
+    return false;
+  }
+  DepthIntrinsics k;
+  k.fx = values[0], k.fy = values[1], k.cx = values[2], k.cy = values[3];
+  if (values.size() == 9) k.k1 = values[4], k.k2 = values[5], k.p1 = values[6], k.p2 = values[7], k.k3 = values[8];
+  k.units_per_metre = units;
+  *intrinsics = k;
   return true;
 }
 

@@ -20,14 +20,22 @@ struct DepthIntrinsics {
   double fx = 0.0, fy = 0.0, cx = 0.0, cy = 0.0;
   double units_per_metre = 5000.0;  // TUM's depth scale
   double k1 = 0.0, k2 = 0.0, p1 = 0.0, p2 = 0.0, k3 = 0.0;
-  // freiburg1's images are not undistorted: its calibration's coefficients are applied here, as a
-  // ROS driver's rectification would. freiburg3's images are undistorted already.
+  // The TUM benchmark's calibrations. freiburg1's and freiburg2's images are not undistorted: their
+  // coefficients are applied here, as a ROS driver's rectification would. freiburg3's images are
+  // undistorted already.
   static DepthIntrinsics freiburg1() {
     return {517.3, 516.5, 318.6, 255.3, 5000.0, 0.2624, -0.9531, -0.0054, 0.0026, 1.1633};
+  }
+  static DepthIntrinsics freiburg2() {
+    return {520.9, 521.0, 325.1, 249.7, 5000.0, 0.2312, -0.7849, -0.0033, -0.0001, 0.9172};
   }
   static DepthIntrinsics freiburg3() { return {535.4, 539.2, 320.1, 247.6}; }
   bool distorted() const { return k1 != 0.0 || k2 != 0.0 || p1 != 0.0 || p2 != 0.0 || k3 != 0.0; }
 };
+
+// A camera by name (freiburg1, freiburg2, freiburg3), or "fx,fy,cx,cy" with optionally
+// ",k1,k2,p1,p2,k3" after it; units_per_metre is left as it is. False with the reason.
+bool parseDepthIntrinsics(const std::string& text, DepthIntrinsics* intrinsics, std::string* error);
 
 // The plumb-bob distortion of the undistorted ray (x, y): where it lands on the normalized image.
 Eigen::Vector2d distortRay(const Eigen::Vector2d& ray, const DepthIntrinsics& k);
