@@ -65,7 +65,9 @@ TEST(FloorLayer, AFloorFoundIsKeptPerCellAndByFramesThatSeeNone) {
   FloorView next;
   for (std::uint64_t k = 1; k <= FloorLayer::kLag; ++k) {
     next = layer.observe(Eigen::Vector3d(0.0, 1.0, 0.0), {}, 10.0);
-    if (k < FloorLayer::kLag) EXPECT_EQ(next.heightAt(1.0, 1.0), 0.0) << "frame " << k;
+    if (k < FloorLayer::kLag) {
+      EXPECT_EQ(next.heightAt(1.0, 1.0), 0.0) << "frame " << k;
+    }
   }
   EXPECT_EQ(layer.status().source, FloorSource::kKept);
   EXPECT_NEAR(next.heightAt(1.0, 1.0), -1.5, 0.01);

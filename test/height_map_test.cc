@@ -9,6 +9,7 @@
 #include <unistd.h>
 #include <string>
 
+#include "core/internal/map_evaluation.h"
 #include "octo_slice_mapper/internal/height_map.h"
 #include "octo_slice_mapper/mapper.h"
 #include "test_helpers.h"
@@ -108,4 +109,64 @@ TEST(HeightMap, AMapWithoutAFloorFoundSavesNone) {
   std::string error;
   ASSERT_TRUE(mapper.save(dir.path() + "/lidar", &written, &error)) << error;
   EXPECT_EQ(written.size(), 9u);
+}
+
+TEST(HeightMap, ALoadedMapKeepsTheFloorItWasFoundWith) {
+  MapperOptions options;
+  options.slice.min_z = 0.05;
+  options.slice.max_z = 0.80;
+  Mapper mapper(options);
+  for (int k = 0; k < 3; ++k) ASSERT_TRUE(mapper.insertPoints(Eigen::Vector3d(0.0, 0.0, -0.3), floorAndBox()).ok());
+  const GridImage saved = gridImageOf(mapper.slice());
+  TempDir dir;
+  const std::string prefix = dir.path() + "/box";
+  std::vector<std::string> written;
+  std::string error;
+  ASSERT_TRUE(mapper.save(prefix, &written, &error)) << error;
+  HeightMap heights;
+  ASSERT_TRUE(readHeightMap(prefix + "_heights.yaml", &heights, &error)) << error;
+  EXPECT_NEAR(heights.fallback_floor, mapper.floor().fallbackHeight(), 1e-6);
+
+  // The box stands 0.05-0.80 m above a floor 1.5 m down: loaded, the slice shows it where the
+  // saved one did (from the fixed frame's z = 0 it would see nothing).
+  for (const char* ending : {".bt", ".ot"}) {
+    Mapper loaded(options);
+    ASSERT_TRUE(loaded.load(prefix + ending, &error)) << error;
+    EXPECT_EQ(loaded.floor().status().cells, mapper.floor().status().cells) << ending;
+    EXPECT_NEAR(loaded.floor().fallbackHeight(), mapper.floor().fallbackHeight(), 1e-6) << ending;
+    EXPECT_GT(loaded.slice().valueAt(2.125, 0.025), 50) << ending << ": the box";
+    EXPECT_LT(loaded.slice().valueAt(1.0, 0.0), 50) << ending << ": the floor, free above it";
+    const GridImage again = gridImageOf(loaded.slice());
+    const OccupancyScore score = scoreOccupancy(again, saved, 0);
+    EXPECT_EQ(score.precision, 1.0) << ending;
+    EXPECT_EQ(score.recall, 1.0) << ending;
+    // Frames after the load are measured against that floor and go on finding it.
+    ASSERT_TRUE(loaded.insertPoints(Eigen::Vector3d(0.0, 0.0, -0.3), floorAndBox()).ok());
+    EXPECT_NEAR(loaded.floor().status().height, -1.5, 0.02) << ending;
+    EXPECT_GT(loaded.slice().valueAt(2.125, 0.025), 50) << ending;
+  }
+
+  // A height map of another save under the same name (another save id) is not this map's floor.
+  Mapper lidar{MapperOptions()};
+  const Scan scan = test_support::makeScan(Eigen::Isometry3d(Eigen::Translation3d(0.0, 0.0, 0.26)), -1.0f, 0.01f,
+                                           std::vector<float>(200, 3.0f), 0.1f, 10.0f);
+  ASSERT_TRUE(lidar.insert(scan).ok());
+  ASSERT_TRUE(lidar.save(prefix, &written, &error)) << error;  // box_heights.* stay, stale
+  Mapper other(options);
+  ASSERT_TRUE(other.load(prefix + ".bt", &error)) << error;
+  EXPECT_EQ(other.floor().status().cells, 0u);
+
+  // This map's height map, damaged: the load is refused with the reason, the map in place kept.
+  ASSERT_TRUE(mapper.save(prefix, &written, &error)) << error;
+  std::FILE* bin = std::fopen((prefix + "_heights.bin").c_str(), "wb");
+  ASSERT_NE(bin, nullptr);
+  std::fputs("short", bin);
+  std::fclose(bin);
+  Mapper keeps(options);
+  ASSERT_TRUE(keeps.insert(scan).ok());
+  const std::size_t known = keeps.slice().knownCells();
+  error.clear();
+  EXPECT_FALSE(keeps.load(prefix + ".bt", &error));
+  EXPECT_NE(error.find("_heights.bin"), std::string::npos) << error;
+  EXPECT_EQ(keeps.slice().knownCells(), known);
 }

@@ -123,8 +123,10 @@ class Mapper {
   // lock that guards the Mapper (a preparer's check, MappingSession::refreshCloudPreparer).
   std::uint64_t inserterGeneration() const { return inserter_generation_.load(std::memory_order_acquire); }
   void reset();
-  // Replaces the map by a saved .bt/.ot (resolution taken from the file). On failure the
-  // current map is kept and false is returned with the reason.
+  // Replaces the map by a saved .bt/.ot (resolution taken from the file), with the floor it was
+  // found with where the save wrote one (PREFIX_heights.yaml/.bin of the same save id; without
+  // it the floor is the fixed frame's z = 0 until frames find one). On failure (the map or its
+  // height map unreadable) the current map is kept and false is returned with the reason.
   bool load(const std::string& path, std::string* error);
   // Writes PREFIX.{bt,ot,pcd,pgm,yaml,png} and PREFIX_incremental.{pgm,yaml,png}: both the incremental
   // map here (MappingSession::save runs the global pass for PREFIX.*).

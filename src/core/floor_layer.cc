@@ -40,6 +40,40 @@ void FloorLayer::reset(double resolution) {
   reset_at_ = folded_;
 }
 
+void FloorLayer::restore(const std::vector<std::pair<std::uint32_t, float>>& cells, double fallback_height) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const int level_before = fallback_level_;
+  fallback_found_ = true;
+  fallback_height_ = fallback_height;
+  fallback_level_ = static_cast<int>(std::lround(fallback_height / resolution_));
+  // Level everywhere: where no cell is known, the floor stands at the fallback's height.
+  FloorPlane level;
+  level.d = -fallback_height;
+  const double far = 1e9;
+  last_plane_ = BoundedPlane{level, Eigen::Vector2d::Constant(-far), Eigen::Vector2d::Constant(far)};
+  for (const auto& [cell, height] : cells) {
+    if (!std::isfinite(height)) continue;
+    const int kx = int(cell & 0xffff), ky = int(cell >> 16);
+    std::shared_ptr<Tile>& tile = tiles_[tileId(kx >> FloorView::kTileBits, ky >> FloorView::kTileBits)];
+    if (!tile) {
+      tile = std::make_shared<Tile>();
+      std::fill(std::begin(tile->height), std::end(tile->height), std::numeric_limits<float>::quiet_NaN());
+      std::fill(std::begin(tile->weight), std::end(tile->weight), std::uint8_t{0});
+      tile->since = folded_;  // what every frame to come is measured against
+    }
+    const int i = FloorView::indexInTile(kx, ky);
+    if (std::isnan(tile->height[i])) status_.cells++;
+    tile->height[i] = height;
+    tile->weight[i] = 1;
+  }
+  pending_.cells.clear();
+  pending_.fallback_changed = pending_.fallback_changed || fallback_level_ != level_before;
+  relevel();
+  status_.source = FloorSource::kKept;
+  status_.height = fallback_height;
+  known_[folded_] = Known{last_plane_, fallback_found_, fallback_height_};
+}
+
 void FloorLayer::setOptions(const FloorOptions& options) {
   std::lock_guard<std::mutex> lock(mutex_);
   options_ = options;
@@ -76,7 +110,7 @@ FloorLayer::LevelChanges FloorLayer::takeLevelChanges() {
 const FloorLayer::Tile* FloorLayer::tileAsOf(std::uint32_t id, std::uint64_t folded) const {
   const auto it = tiles_.find(id);
   const Tile* tile = it == tiles_.end() ? nullptr : it->second.get();
-  while (tile && tile->since >= folded) tile = tile->before.get();
+  while (tile && tile->since > folded) tile = tile->before.get();
   return tile;
 }
 
@@ -84,7 +118,7 @@ std::shared_ptr<const FloorLayer::Tile> FloorLayer::sharedTileAsOf(std::uint32_t
   const auto it = tiles_.find(id);
   std::shared_ptr<const Tile> tile;
   if (it != tiles_.end()) tile = it->second;
-  while (tile && tile->since >= folded) tile = tile->before;
+  while (tile && tile->since > folded) tile = tile->before;
   return tile;
 }
 
@@ -96,17 +130,17 @@ FloorLayer::Tile& FloorLayer::writableTile(int tx, int ty) {
     tile = std::make_shared<Tile>();
     std::fill(std::begin(tile->height), std::end(tile->height), std::numeric_limits<float>::quiet_NaN());
     std::fill(std::begin(tile->weight), std::end(tile->weight), std::uint8_t{0});
-    tile->since = folded_;
-  } else if (tile->since != folded_) {
+    tile->since = folded_ + 1;
+  } else if (tile->since != folded_ + 1) {
     auto copy = std::make_shared<Tile>(*tile);
-    copy->since = folded_;
+    copy->since = folded_ + 1;
     copy->before = std::move(tile);
     tile = std::move(copy);
     // The frames still to fold (folded_ + 1 on) are measured against the layer after at least
     // folded_ + 2 - kLag frames.
     const std::uint64_t oldest = folded_ + 2 >= kLag ? folded_ + 2 - kLag : 0;
     for (const Tile* v = tile.get(); v; v = v->before.get()) {
-      if (v->since < oldest) {
+      if (v->since <= oldest) {
         v->before.reset();
         break;
       }

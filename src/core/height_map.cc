@@ -4,8 +4,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <limits>
+#include <fstream>
+#include <iomanip>
+#include <iterator>
+#include <map>
 #include <sstream>
 
 namespace octo_slice_mapper {
@@ -47,6 +53,7 @@ HeightMap heightMapOf(const octomap::OcTree& tree, const FloorLayer& floor, cons
   if (frame.width <= 0 || frame.height <= 0 || floor.status().cells == 0) return map;
   map.width = frame.width, map.height = frame.height;
   map.resolution = frame.resolution, map.origin_x = frame.origin_x, map.origin_y = frame.origin_y;
+  map.fallback_floor = floor.fallbackHeight();
   fillHeights(occupiedVoxels(tree), floor, tree.getResolution(), min_height, &map);
   return map;
 }
@@ -66,6 +73,7 @@ HeightMap heightMapOf(const std::vector<OccupiedVoxel>& voxels, const FloorLayer
   map.width = x1 - x0 + 1, map.height = y1 - y0 + 1;
   map.resolution = resolution;
   map.origin_x = (x0 - 32768) * resolution, map.origin_y = (y0 - 32768) * resolution;
+  map.fallback_floor = floor.fallbackHeight();
   fillHeights(voxels, floor, resolution, min_height, &map);
   return map;
 }
@@ -118,6 +126,10 @@ bool addHeightMap(const HeightMap& map, const std::string& prefix, FileSet* file
        << "resolution: " << map.resolution << "\n"
        << "origin: [" << map.origin_x << ", " << map.origin_y << "]\n"
        << "width: " << map.width << "\nheight: " << map.height << "\n";
+  if (std::isfinite(map.fallback_floor)) {
+    yaml << "# fallback_floor: the floor's height where no cell's is known (m, map frame)\n"
+         << "fallback_floor: " << std::setprecision(9) << map.fallback_floor << "\n";
+  }
   files->emplace_back(name + ".yaml", yaml.str());
   std::string data;
   data.resize((map.floor.size() + map.top.size()) * sizeof(float));
@@ -184,6 +196,70 @@ bool addHeightMap(const HeightMap& map, const std::string& prefix, FileSet* file
     return false;
   }
   files->emplace_back(name + ".png", std::move(bytes));
+  return true;
+}
+
+bool readHeightMap(const std::string& yaml_path, HeightMap* map, std::string* error) {
+  std::ifstream yaml(yaml_path);
+  if (!yaml) {
+    *error = yaml_path + ": cannot open";
+    return false;
+  }
+  std::map<std::string, std::string> keys;
+  std::string line;
+  while (std::getline(yaml, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    const std::size_t colon = line.find(':');
+    if (colon == std::string::npos) continue;
+    std::size_t from = colon + 1;
+    while (from < line.size() && line[from] == ' ') ++from;
+    keys[line.substr(0, colon)] = line.substr(from);
+  }
+  const auto number = [&](const char* key, double* value) {
+    const auto it = keys.find(key);
+    char* end = nullptr;
+    if (it != keys.end()) *value = std::strtod(it->second.c_str(), &end);
+    if (it == keys.end() || end == it->second.c_str() || *end != '\0') {
+      *error = yaml_path + ": no number '" + key + "'";
+      return false;
+    }
+    return true;
+  };
+  HeightMap read;
+  double width = 0, height = 0;
+  if (!number("resolution", &read.resolution) || !number("width", &width) || !number("height", &height)) return false;
+  if (keys.count("fallback_floor") && !number("fallback_floor", &read.fallback_floor)) return false;
+  const auto origin = keys.find("origin");
+  if (origin == keys.end() ||
+      std::sscanf(origin->second.c_str(), "[%lf, %lf]", &read.origin_x, &read.origin_y) != 2) {
+    *error = yaml_path + ": no 'origin: [x, y]'";
+    return false;
+  }
+  if (!(read.resolution > 0.0) || !(width >= 1 && width <= 1e6 && height >= 1 && height <= 1e6) ||
+      width != std::floor(width) || height != std::floor(height) || !keys.count("data")) {
+    *error = yaml_path + ": no data file, or its geometry is impossible";
+    return false;
+  }
+  read.width = int(width), read.height = int(height);
+  const std::string data_path = yaml_path.substr(0, yaml_path.find_last_of('/') + 1) + keys["data"];
+  std::ifstream data(data_path, std::ios::binary);
+  if (!data) {
+    *error = data_path + ": cannot open (named by " + yaml_path + ")";
+    return false;
+  }
+  const std::size_t cells = std::size_t(read.width) * std::size_t(read.height);
+  std::string bytes((std::istreambuf_iterator<char>(data)), std::istreambuf_iterator<char>());
+  if (bytes.size() != 2 * cells * sizeof(float)) {
+    *error = data_path + ": " + std::to_string(bytes.size()) + " bytes, not the " +
+             std::to_string(2 * cells * sizeof(float)) + " of two " + std::to_string(read.width) + " x " +
+             std::to_string(read.height) + " float grids";
+    return false;
+  }
+  read.floor.resize(cells);
+  read.top.resize(cells);
+  std::memcpy(read.floor.data(), bytes.data(), cells * sizeof(float));  // x86-64: little-endian
+  std::memcpy(read.top.data(), bytes.data() + cells * sizeof(float), cells * sizeof(float));
+  *map = std::move(read);
   return true;
 }
 

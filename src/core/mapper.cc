@@ -277,8 +277,25 @@ bool Mapper::load(const std::string& path, std::string* error) {
   }
   std::unique_ptr<octomap::OcTree> tree = loadTree(path, error);
   if (!tree) return false;
-  // A saved map holds no floor layer: the loaded one is sliced from the fixed frame's z = 0 until
-  // frames find a floor again. The current floor stays if the map cannot be taken.
+  // The floor the map was found with: its height map, saved beside it with the same save id (one
+  // with another id is an older save's under the same name). Without one the map is sliced from
+  // the fixed frame's z = 0 until frames find a floor again. Read first: a height map that cannot
+  // be read refuses the load, and the current map and floor stay.
+  HeightMap heights;
+  const std::size_t dot = path.find_last_of('.');
+  const std::string heights_path = path.substr(0, dot == std::string::npos ? path.size() : dot) + "_heights.yaml";
+  const std::string id = readSaveId(path);
+  if (!id.empty() && readSaveId(heights_path) == id) {
+    if (!readHeightMap(heights_path, &heights, error)) {
+      *error = "the map's floor: " + *error;
+      return false;
+    }
+    if (std::abs(heights.resolution - tree->getResolution()) > 1e-9 * tree->getResolution()) {
+      *error = heights_path + ": resolution " + std::to_string(heights.resolution) + ", the map's is " +
+               std::to_string(tree->getResolution());
+      return false;
+    }
+  }
   std::unordered_map<std::uint32_t, int> levels;
   levels.swap(floor_levels_);
   const int level = std::exchange(slice_level_, 0);
@@ -292,6 +309,30 @@ bool Mapper::load(const std::string& path, std::string* error) {
   }
   floor_->reset(options_.resolution);
   floor_->takeLevelChanges();
+  if (!heights.empty()) {
+    std::vector<std::pair<std::uint32_t, float>> cells;
+    double fallback = heights.fallback_floor;
+    std::vector<float> known;
+    for (int j = 0; j < heights.height; ++j) {
+      for (int i = 0; i < heights.width; ++i) {
+        const float h = heights.floor[std::size_t(j) * heights.width + i];
+        if (!std::isfinite(h)) continue;
+        const int kx = floorKeyOf(heights.origin_x + (i + 0.5) * heights.resolution, heights.resolution);
+        const int ky = floorKeyOf(heights.origin_y + (j + 0.5) * heights.resolution, heights.resolution);
+        if (kx < 0 || ky < 0) continue;
+        cells.emplace_back(std::uint32_t(kx) | std::uint32_t(ky) << 16, h);
+        known.push_back(h);
+      }
+    }
+    if (!std::isfinite(fallback) && !known.empty()) {  // not saved: the cells' median
+      std::nth_element(known.begin(), known.begin() + known.size() / 2, known.end());
+      fallback = known[known.size() / 2];
+    }
+    if (!cells.empty()) {
+      floor_->restore(cells, fallback);
+      followFloor();
+    }
+  }
   return true;
 }
 

@@ -73,8 +73,9 @@ class FloorView {
   struct Tile {
     float height[kTileSize * kTileSize];  // NaN: not known
     std::uint8_t weight[kTileSize * kTileSize];
-    // The layer's versions (read and written under its lock only): the frame whose fold made
-    // this one, and the one before it, for frames measured against an older layer.
+    // The layer's versions (read and written under its lock only): how many frames are folded in
+    // once this one holds (its fold's frame + 1; a restored tile: those before the restore), and
+    // the one before it, for frames measured against an older layer.
     std::uint64_t since = 0;
     mutable std::shared_ptr<const Tile> before;
   };
@@ -162,6 +163,11 @@ class FloorLayer {
   void forEachCell(const std::function<void(std::uint16_t, std::uint16_t, float)>& fn) const;
   // Forgets everything (a map reset or load); a new resolution when the map's changes.
   void reset(double resolution);
+  // After reset(): the floor a saved map was found with (its height map): each (key x | key y << 16)
+  // cell's height, and the height where no cell is known (the level plane of the last floor
+  // found). Every frame to come is measured against it, and its levels are the next
+  // takeLevelChanges(). The cells count as seen once (a frame's measurement soon outweighs them).
+  void restore(const std::vector<std::pair<std::uint32_t, float>>& cells, double fallback_height);
   void setOptions(const FloorOptions& options);
 
  private:

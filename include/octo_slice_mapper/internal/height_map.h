@@ -5,6 +5,7 @@
 
 #include <octomap/OcTree.h>
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -20,6 +21,8 @@ struct HeightMap {
   double origin_x = 0.0, origin_y = 0.0;  // the lower-left corner of cell (0, 0)
   std::vector<float> floor;  // m, map frame; NaN where no floor was found
   std::vector<float> top;    // m above the floor under it, of the highest occupied voxel; NaN: none
+  // The floor's height where no cell is known (the last floor found under a sensor); NaN: not saved.
+  double fallback_floor = std::numeric_limits<double>::quiet_NaN();
   bool empty() const { return width == 0 || height == 0; }
 };
 
@@ -38,5 +41,9 @@ HeightMap heightMapOf(const std::vector<OccupiedVoxel>& voxels, const FloorLayer
 // PREFIX_heights.png (tops coloured from 0 to 2 m above the floor, cells with a floor and nothing
 // on it light grey, a legend below), into `files`.
 bool addHeightMap(const HeightMap& map, const std::string& prefix, FileSet* files, std::string* error);
+// A saved height map back (its .yaml, and the .bin it names beside it). False with the reason
+// when either cannot be read, a key is missing or malformed, or the data's size is not the
+// geometry's.
+bool readHeightMap(const std::string& yaml_path, HeightMap* map, std::string* error);
 
 }  // namespace octo_slice_mapper
