@@ -111,6 +111,15 @@ TEST_F(CloudPipelineTest, GivesTheMapOfInsertingOneByOneInTheOrderSubmitted) {
         // The floor layer took the frames in their order too (each frame is measured against it).
         EXPECT_EQ(m.floor().status().frames_found, reference.floor().status().frames_found);
         EXPECT_EQ(m.floor().status().cells, reference.floor().status().cells);
+        // The slice followed the floor at the same frames: the same raster, cell for cell (a
+        // frame took the level changes of whichever later frames were already folded in, and
+        // the grid grew to other bounds from run to run).
+        const GridImage slice = gridImageOf(m.slice()), expected_slice = gridImageOf(reference.slice());
+        EXPECT_EQ(slice.width, expected_slice.width) << threads << " threads";
+        EXPECT_EQ(slice.height, expected_slice.height) << threads << " threads";
+        EXPECT_EQ(slice.origin_x, expected_slice.origin_x) << threads << " threads";
+        EXPECT_EQ(slice.origin_y, expected_slice.origin_y) << threads << " threads";
+        EXPECT_TRUE(slice.cells == expected_slice.cells) << threads << " threads";
       });
       EXPECT_GT(m.floor().status().frames_found, clouds_->size() / 2) << "the frames' floor was not found";
       EXPECT_EQ(m.stats().clouds_inserted, clouds_->size());

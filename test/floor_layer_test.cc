@@ -184,3 +184,25 @@ TEST(FloorLayer, ResetForgetsEverything) {
   layer.forEachCell([&](std::uint16_t, std::uint16_t, float) { ++cells; });
   EXPECT_EQ(cells, 0);
 }
+
+TEST(FloorLayer, LevelChangesAreTakenAsOfAFrameWhateverLaterFramesWereFoldedIn) {
+  // A pipeline may fold frames 1 and 2 in before the map inserts frame 0: the map inserting
+  // frame 0 takes frame 0's changes only, as it would have inserting frame after frame.
+  FloorLayer layer(kResolution, {});
+  layer.observe(0, Eigen::Vector3d(0.0, 1.0, 0.0), floorFrame(-1.5, 0.0, 1.0), 10.0);
+  layer.observe(1, Eigen::Vector3d(0.0, 1.0, 0.0), floorFrame(-1.5, 1.0, 2.0), 10.0);
+  layer.observe(2, Eigen::Vector3d(0.0, 1.0, 0.0), floorFrame(-0.5, 3.0, 4.0), 10.0);
+  const FloorLayer::LevelChanges first = layer.takeLevelChanges(1);
+  EXPECT_TRUE(first.fallback_changed);
+  EXPECT_EQ(first.fallback_level, -30);
+  EXPECT_EQ(first.cells.size(), 20u * 40u) << "frame 0's cells";
+  const FloorLayer::LevelChanges second = layer.takeLevelChanges(2);
+  EXPECT_FALSE(second.fallback_changed);
+  EXPECT_EQ(second.fallback_level, -30);
+  EXPECT_EQ(second.cells.size(), 20u * 40u) << "frame 1's cells";
+  EXPECT_TRUE(layer.takeLevelChanges(2).cells.empty()) << "taken once";
+  // Frame 2 found a floor a metre higher (a lower one is the floor; a higher one, beyond
+  // max_rise, is not): whatever it changed comes with it, with the fallback as of frame 2.
+  const FloorLayer::LevelChanges rest = layer.takeLevelChanges();
+  EXPECT_EQ(rest.fallback_level, layer.fallbackLevel());
+}

@@ -188,14 +188,16 @@ class Mapper {
   // The global pass reads scans as insertion does: its reading rules, no-return range and range
   // cut follow `insert`.
   static void followInsertion(MapperOptions* options);
-  InsertResult record(InsertResult result, bool cloud);  // slice update + statistics
+  // Slice update + statistics; a cloud's slice follows the floor as of its frame `floor_frame`.
+  InsertResult record(InsertResult result, bool cloud, std::optional<std::uint64_t> floor_frame = std::nullopt);
   // How far from the sensor a frame's view of the floor reaches: as far as a return may mark.
   double floorReach() const;
   // A cloud's points prepared and applied, its floor frame `floor_frame` (or the next).
   InsertResult insertCloud(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points,
                            std::optional<std::uint64_t> floor_frame, const ReadingCounts& left_out);
-  // The slice follows the floor layer's new levels: shifted columns, or a band moved whole.
-  void followFloor();
+  // The slice follows the floor layer's new levels as of frame `frame`'s fold (none: all so far):
+  // shifted columns, or a band moved whole.
+  void followFloor(std::optional<std::uint64_t> frame = std::nullopt);
   // The user's band moved to the floor level the slice stands on.
   SliceOptions sliceBand(const SliceOptions& band) const;
   std::vector<std::pair<std::uint32_t, int>> columnShifts() const;

@@ -32,7 +32,9 @@ void FloorLayer::reset(double resolution) {
   const bool moved = fallback_level_ != 0;
   fallback_level_ = 0;
   pending_ = LevelChanges();
+  due_.clear();
   pending_.fallback_changed = moved;
+  makeDue();
   status_ = FloorStatus();
   // Frames still to come keep their numbers and turns; they are measured against the empty layer.
   known_.clear();
@@ -69,6 +71,7 @@ void FloorLayer::restore(const std::vector<std::pair<std::uint32_t, float>>& cel
   pending_.cells.clear();
   pending_.fallback_changed = pending_.fallback_changed || fallback_level_ != level_before;
   relevel();
+  makeDue();
   status_.source = FloorSource::kKept;
   status_.height = fallback_height;
   known_[folded_] = Known{last_plane_, fallback_found_, fallback_height_};
@@ -99,11 +102,25 @@ int FloorLayer::fallbackLevel() const {
   return fallback_level_;
 }
 
-FloorLayer::LevelChanges FloorLayer::takeLevelChanges() {
-  std::lock_guard<std::mutex> lock(mutex_);
-  LevelChanges taken = std::move(pending_);
+void FloorLayer::makeDue() {
+  LevelChanges& due = due_[folded_];
+  due.cells.insert(due.cells.end(), pending_.cells.begin(), pending_.cells.end());
+  due.fallback_changed = due.fallback_changed || pending_.fallback_changed;
+  due.fallback_level = fallback_level_;
   pending_ = LevelChanges();
-  taken.fallback_level = fallback_level_;
+}
+
+FloorLayer::LevelChanges FloorLayer::takeLevelChanges(std::optional<std::uint64_t> folded) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  LevelChanges taken;
+  const auto end = folded ? due_.upper_bound(*folded) : due_.end();
+  for (auto it = due_.begin(); it != end; ++it) {
+    taken.cells.insert(taken.cells.end(), it->second.cells.begin(), it->second.cells.end());
+    taken.fallback_changed = taken.fallback_changed || it->second.fallback_changed;
+    taken_level_ = it->second.fallback_level;
+  }
+  due_.erase(due_.begin(), end);
+  taken.fallback_level = taken_level_;
   return taken;
 }
 
@@ -373,6 +390,7 @@ void FloorLayer::foldReady() {
     fold(it->second);
     waiting_.erase(it);
     ++folded_;
+    if (!pending_.cells.empty() || pending_.fallback_changed) makeDue();
     known_[folded_] = Known{last_plane_, fallback_found_, fallback_height_};
     // Frames from folded_ on are measured against the layer after folded_ + 1 - kLag frames or more.
     const std::uint64_t oldest = folded_ + 1 >= kLag ? folded_ + 1 - kLag : 0;

@@ -114,7 +114,7 @@ InsertResult Mapper::insertCloud(const Eigen::Vector3d& origin, const std::vecto
   InsertResult result = inserter_->applyCloud(
       inserter_->prepareCloud(origin, points, half_angle, floorStageOf(floor_.get(), frame, floorReach())));
   result.readings += left_out;
-  return record(std::move(result), /*cloud=*/true);
+  return record(std::move(result), /*cloud=*/true, frame);
 }
 
 double Mapper::floorReach() const {
@@ -146,8 +146,8 @@ std::vector<std::pair<std::uint32_t, int>> Mapper::columnShifts() const {
   return shifts;
 }
 
-void Mapper::followFloor() {
-  FloorLayer::LevelChanges changes = floor_->takeLevelChanges();
+void Mapper::followFloor(std::optional<std::uint64_t> frame) {
+  FloorLayer::LevelChanges changes = floor_->takeLevelChanges(frame ? std::optional<std::uint64_t>(*frame + 1) : std::nullopt);
   std::vector<std::pair<std::uint32_t, int>> shifts;
   shifts.reserve(changes.cells.size());
   for (const auto& [column, level] : changes.cells) {
@@ -197,17 +197,18 @@ std::unique_ptr<CloudPreparer> Mapper::cloudPreparer() const {
 
 bool Mapper::insertPrepared(PreparedCloud prepared, std::uint64_t map_generation, InsertResult* result) {
   if (map_generation != inserterGeneration()) return false;
-  *result = record(inserter_->applyCloud(std::move(prepared)), /*cloud=*/true);
+  const std::optional<std::uint64_t> frame = prepared.floor_frame;
+  *result = record(inserter_->applyCloud(std::move(prepared)), /*cloud=*/true, frame);
   return true;
 }
 
-InsertResult Mapper::record(InsertResult result, bool cloud) {
+InsertResult Mapper::record(InsertResult result, bool cloud, std::optional<std::uint64_t> floor_frame) {
   if (!result.ok()) {
     (cloud ? stats_.clouds_rejected : stats_.scans_rejected)++;
     return result;
   }
   slice_->updateColumns(result.updated_keys, result.touched, result.changes);
-  if (cloud) followFloor();
+  if (cloud) followFloor(floor_frame);
   boundUnflushed();  // after clouds too: a camera alone was never flushed before
   (cloud ? stats_.clouds_inserted : stats_.scans_inserted)++;
   (cloud ? stats_.cloud_points : stats_.readings) += result.readings;

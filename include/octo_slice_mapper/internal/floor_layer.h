@@ -152,7 +152,11 @@ class FloorLayer {
     std::vector<std::pair<std::uint32_t, int>> cells;
   };
   static constexpr int kNoLevel = -0x7fffffff;
-  LevelChanges takeLevelChanges();
+  // The changes not taken yet that the folds of the first `folded` frames made (all: every fold
+  // so far), in fold order, with the fallback's level as of the last of them. A map that inserts
+  // frame f takes those of folds 0 .. f: the same whichever later frames a pipeline has already
+  // folded in, so that the slice follows the floor at the same frames in every run.
+  LevelChanges takeLevelChanges(std::optional<std::uint64_t> folded = std::nullopt);
   int fallbackLevel() const;
   // The floor's height where no cell is known: the last found under a sensor (0 before any).
   double fallbackHeight() const;
@@ -228,7 +232,11 @@ class FloorLayer {
   bool fallback_found_ = false;
   double fallback_height_ = 0.0;
   int fallback_level_ = 0;
-  LevelChanges pending_;
+  LevelChanges pending_;  // the fold in progress' (or a reset's, a restore's)
+  // Changes not taken yet, by the number of frames folded in once they were made.
+  std::map<std::uint64_t, LevelChanges> due_;
+  int taken_level_ = 0;  // the fallback's level as of the changes last taken
+  void makeDue();        // pending_ due now (at folded_)
   FloorStatus status_;
   std::uint64_t taken_ = 0;   // frame numbers given
   std::uint64_t folded_ = 0;  // frames folded in: 0 .. folded_ - 1
