@@ -209,7 +209,10 @@ TEST(SliceGrid, ASparseMapRebuildsItsLeavesColumns) {
 // checked against the same batch without the changes (every listed column read from its layers).
 // The values run over the whole clamping range, so that every rule is taken, both signs, the 50 %
 // boundary and voxels moving away from the extreme that counts.
-TEST(SliceGrid, ColumnsFollowTheirChangesAsIfTheyWereRead) {
+// Random changes in a 4 x 4 patch of columns, followed from each change (updateColumns with the
+// changes) and read again (without them): the same slice after every batch. With `shift`, the
+// patch's even columns are shifted by it (a floor found off the band's), their bands read.
+void expectColumnsFollowAsRead(int shift) {
   octomap::OcTree tree(0.05);
   tree.setClampingThresMin(0.003);
   tree.setClampingThresMax(0.997);
@@ -218,10 +221,17 @@ TEST(SliceGrid, ColumnsFollowTheirChangesAsIfTheyWereRead) {
   const unsigned lo = followed.bandMinKey(), hi = followed.bandMaxKey();
   ASSERT_GE(hi - lo, 3u) << "the default band holds several layers";
   const octomap::OcTreeKey origin = tree.coordToKey(1.0, 2.0, 0.26);
+  std::vector<std::pair<std::uint32_t, int>> shifts;
+  for (int dx = 0; shift != 0 && dx < 4; dx += 2) {
+    for (int dy = 0; dy < 4; ++dy) shifts.emplace_back(std::uint32_t(origin[0] + dx) | std::uint32_t(origin[1] + dy) << 16, shift);
+  }
+  followed.shiftColumns(shifts);
+  read.shiftColumns(shifts);
   std::mt19937 rng(11);
-  std::uniform_int_distribution<int> column(0, 3), layer(int(lo) - 1, int(hi) + 1), steps(-8, 8);
+  std::uniform_int_distribution<int> column(0, 3), layer(int(lo) - 1 + std::min(0, shift), int(hi) + 1 + std::max(0, shift)),
+      steps(-8, 8);
   const float step = 0.35f;  // a few steps cross 0 and reach the bounds (about +-5.8)
-  std::size_t changes_seen = 0, followed_alone = 0;
+  std::size_t changes_seen = 0, in_band = 0, followed_alone = 0;
   for (int batch = 0; batch < 3000; ++batch) {
     std::vector<octomap::OcTreeKey> keys;
     std::vector<VoxelChange> changes;
@@ -235,7 +245,9 @@ TEST(SliceGrid, ColumnsFollowTheirChangesAsIfTheyWereRead) {
       if (cache.apply(l, key[0], key[1], step * steps(rng), &change)) {
         const int kx = key[0] - read.originKeyX(), ky = key[1] - read.originKeyY();
         const bool covered = read.width() > 0 && kx >= 0 && ky >= 0 && kx < read.width() && ky < read.height();
-        if (key[2] >= lo && key[2] <= hi && covered) {
+        const int s = read.columnShift(key[0], key[1]);
+        if (int(key[2]) >= int(lo) + s && int(key[2]) <= int(hi) + s && covered) {
+          ++in_band;
           followed_alone += SliceGrid::columnAfter(read.at(kx, ky), change) != kPendingCell;
         }
         keys.push_back(key);
@@ -246,21 +258,30 @@ TEST(SliceGrid, ColumnsFollowTheirChangesAsIfTheyWereRead) {
     followed.updateColumns(keys, box, changes);
     read.updateColumns(keys, box);
     changes_seen += keys.size();
-    ASSERT_EQ(followed.data(), read.data()) << "batch " << batch;
+    ASSERT_EQ(followed.data(), read.data()) << "batch " << batch << ", shift " << shift;
   }
   EXPECT_GT(changes_seen, 5000u);
-  // Most changes need no read (counted against each column's value before its batch).
-  EXPECT_GT(followed_alone, changes_seen / 2);
+  // Most changes in a column's band need no read (counted against each column's value before
+  // its batch).
+  EXPECT_GT(followed_alone, in_band / 2) << "shift " << shift;
   EXPECT_GT(read.knownCells(), 10u);
   cache.flush();  // a rebuild finds the columns through the octree's leaves
   SliceGrid rebuilt(tree, SliceOptions{});
+  rebuilt.shiftColumns(shifts);
   rebuilt.rebuild();
   for (int dx = 0; dx < 4; ++dx) {
     for (int dy = 0; dy < 4; ++dy) {
       const double x = tree.keyToCoord(origin[0] + dx), y = tree.keyToCoord(origin[1] + dy);
-      EXPECT_EQ(followed.valueAt(x, y), rebuilt.valueAt(x, y)) << dx << ", " << dy;
+      EXPECT_EQ(followed.valueAt(x, y), rebuilt.valueAt(x, y)) << dx << ", " << dy << ", shift " << shift;
     }
   }
+}
+
+TEST(SliceGrid, ColumnsFollowTheirChangesAsIfTheyWereRead) { expectColumnsFollowAsRead(0); }
+
+TEST(SliceGrid, ShiftedColumnsFollowTheirChangesAsIfTheyWereRead) {
+  expectColumnsFollowAsRead(3);
+  expectColumnsFollowAsRead(-2);
 }
 
 TEST(SliceGrid, AShiftedColumnReadsItsOwnBandAndFollowsItsVoxels) {

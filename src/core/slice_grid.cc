@@ -355,7 +355,7 @@ void SliceGrid::updateColumns(const std::vector<octomap::OcTreeKey>& keys, const
     const std::uint32_t index = std::uint32_t(k[1] - origin_key_y_) * std::uint32_t(width_) + (k[0] - origin_key_x_);
     std::int8_t& cell = data_[index];
     if (cell == kPendingCell) continue;
-    if (with_changes && shift == 0) {
+    if (with_changes) {
       const std::int8_t after = followChange(cell, changes[i], percent);
       if (after != kPendingCell) {
         cell = after;
