@@ -323,8 +323,8 @@ int main(int argc, char** argv) {
     const struct {
       const char* name;
       osm::tools::DepthIntrinsics intrinsics;
-    } sequences[] = {{"tum_fr3_cabinet", osm::tools::DepthIntrinsics::freiburg3()},
-                     {"tum_fr1_rpy", osm::tools::DepthIntrinsics::freiburg1()}};
+    } sequences[] = {{"tum_fr3_cabinet", osm::tools::DepthIntrinsics::tum()},  // TUM's documented conversion
+                     {"tum_fr1_rpy", osm::tools::DepthIntrinsics::tum()}};
     for (const auto& s : sequences) {
       std::vector<Frame> frames;
       if (!realFrames(data + "/" + s.name, s.intrinsics, every, &frames)) continue;

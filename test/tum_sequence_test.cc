@@ -120,6 +120,9 @@ TEST(TumSequence, CamerasAreNamedOrGivenByTheirIntrinsics) {
   DepthIntrinsics k;
   k.units_per_metre = 1000.0;
   std::string error;
+  ASSERT_TRUE(parseDepthIntrinsics("tum", &k, &error)) << error;
+  EXPECT_EQ(k.fx, 525.0);
+  EXPECT_FALSE(k.distorted());
   ASSERT_TRUE(parseDepthIntrinsics("freiburg2", &k, &error)) << error;
   EXPECT_EQ(k.fx, DepthIntrinsics::freiburg2().fx);
   EXPECT_TRUE(k.distorted());
@@ -204,7 +207,7 @@ TEST(TumSequence, ARealFloorIsFoundWhereverTheFixedFrameHasIt) {
       EXPECT_TRUE(tools::readDepthPng(sequence[i].image, &width, &height, &pixels, &error)) << error;
       const Eigen::Isometry3d pose = world * sequence[i].pose;
       std::vector<Eigen::Vector3f> points;
-      for (const Eigen::Vector3f& p : tools::depthPoints(width, height, pixels, tools::DepthIntrinsics::freiburg3())) {
+      for (const Eigen::Vector3f& p : tools::depthPoints(width, height, pixels, tools::DepthIntrinsics::tum())) {
         if (p.allFinite()) points.push_back((pose * p.cast<double>()).cast<float>());
       }
       EXPECT_TRUE(mapper.insertPoints(pose.translation(), points).ok());

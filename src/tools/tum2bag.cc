@@ -1,13 +1,15 @@
 // tum2bag: a TUM RGB-D sequence (depth PNGs and motion-capture poses) as a rosbag of organized
 // PointCloud2 frames and tf, so that octo_slice_map and replay.launch map real depth cameras:
 //
-//   tum2bag FOLDER OUT.bag [--camera freiburg1|freiburg2|freiburg3|fx,fy,cx,cy[,k1,k2,p1,p2,k3]]
+//   tum2bag FOLDER OUT.bag [--camera tum|freiburg1|freiburg2|freiburg3|fx,fy,cx,cy[,k1,k2,p1,p2,k3]]
 //           [--depth-scale UNITS_PER_METRE] [--lower M] [--tilt DEG] [--fixed-frame odom]
 //   octo_slice_map --bag OUT.bag --scan-topic '' --cloud-topic /camera/depth/points
 //       --slice-min-z 0.05 --slice-max-z 0.80
 //
-// --camera names the TUM benchmark's camera (freiburg3 by default) or gives another's intrinsics
-// (pixels) and plumb-bob lens coefficients; --depth-scale is the depth PNGs' units per metre (5000).
+// --camera: tum (the default) is the conversion the TUM benchmark documents for its depth images
+// (registered to the colour camera by the driver); freiburg1..3 are its colour cameras'
+// calibrations; or another camera's intrinsics (pixels) and plumb-bob lens coefficients.
+// --depth-scale is the depth PNGs' units per metre (5000).
 // --lower M moves the world down by M (the floor at z = -M) and --tilt DEG turns it about the
 // x axis: the same frames in another fixed frame, as a robot whose odometry origin is not on the
 // floor, or whose camera mount is off by a degree or two, would record them.
@@ -28,14 +30,14 @@
 namespace {
 
 const char kUsage[] =
-    "usage: tum2bag FOLDER OUT.bag [--camera freiburg1|freiburg2|freiburg3|fx,fy,cx,cy[,k1,k2,p1,p2,k3]]\n"
+    "usage: tum2bag FOLDER OUT.bag [--camera tum|freiburg1|freiburg2|freiburg3|fx,fy,cx,cy[,k1,k2,p1,p2,k3]]\n"
     "               [--depth-scale UNITS_PER_METRE] [--lower M] [--tilt DEG] [--fixed-frame odom]\n";
 
 }  // namespace
 
 int main(int argc, char** argv) {
   namespace tools = octo_slice_mapper::tools;
-  std::string folder, bag_path, camera = "freiburg3", fixed_frame = "odom";
+  std::string folder, bag_path, camera = "tum", fixed_frame = "odom";
   double lower = 0.0, tilt_deg = 0.0, depth_scale = 5000.0;
   try {
     for (int i = 1; i < argc; ++i) {

@@ -149,8 +149,9 @@ bool readDepthPng(const std::string& path, int* width, int* height, std::vector<
 
 bool parseDepthIntrinsics(const std::string& text, DepthIntrinsics* intrinsics, std::string* error) {
   const double units = intrinsics->units_per_metre;
-  if (text == "freiburg1" || text == "freiburg2" || text == "freiburg3") {
-    *intrinsics = text == "freiburg1"   ? DepthIntrinsics::freiburg1()
+  if (text == "tum" || text == "freiburg1" || text == "freiburg2" || text == "freiburg3") {
+    *intrinsics = text == "tum"         ? DepthIntrinsics::tum()
+                  : text == "freiburg1" ? DepthIntrinsics::freiburg1()
                   : text == "freiburg2" ? DepthIntrinsics::freiburg2()
                                         : DepthIntrinsics::freiburg3();
     intrinsics->units_per_metre = units;
@@ -169,7 +170,7 @@ bool parseDepthIntrinsics(const std::string& text, DepthIntrinsics* intrinsics, 
     values.push_back(v);
   }
   if (values.size() != 4 && values.size() != 9) {
-    *error = "camera '" + text + "': not freiburg1, freiburg2, freiburg3, \"fx,fy,cx,cy\" or \"fx,fy,cx,cy,k1,k2,p1,p2,k3\"";
+    *error = "camera '" + text + "': not tum, freiburg1, freiburg2, freiburg3, \"fx,fy,cx,cy\" or \"fx,fy,cx,cy,k1,k2,p1,p2,k3\"";
     return false;
   }
   if (!(values[0] > 0.0 && values[1] > 0.0)) {

@@ -20,9 +20,15 @@ struct DepthIntrinsics {
   double fx = 0.0, fy = 0.0, cx = 0.0, cy = 0.0;
   double units_per_metre = 5000.0;  // TUM's depth scale
   double k1 = 0.0, k2 = 0.0, p1 = 0.0, p2 = 0.0, k3 = 0.0;
-  // The TUM benchmark's calibrations. freiburg1's and freiburg2's images are not undistorted: their
-  // coefficients are applied here, as a ROS driver's rectification would. freiburg3's images are
-  // undistorted already.
+  // The conversion the TUM benchmark documents for the depth images of every sequence: the OpenNI
+  // driver undistorted them and registered them to the colour camera with the Kinect's factory
+  // calibration (ROS's default intrinsics). On fr1 rpy it puts the floor where the motion capture
+  // has it (z = 0 within 1 mm), where the colour camera's calibration below puts it 4 cm up, rising
+  // towards the images' edges.
+  static DepthIntrinsics tum() { return {525.0, 525.0, 319.5, 239.5}; }
+  // The TUM benchmark's calibrations of the colour cameras, for images in their raw geometry.
+  // freiburg1's and freiburg2's lenses distort: their coefficients are applied here, as a ROS
+  // driver's rectification would. freiburg3's images are undistorted already.
   static DepthIntrinsics freiburg1() {
     return {517.3, 516.5, 318.6, 255.3, 5000.0, 0.2624, -0.9531, -0.0054, 0.0026, 1.1633};
   }
@@ -33,7 +39,7 @@ struct DepthIntrinsics {
   bool distorted() const { return k1 != 0.0 || k2 != 0.0 || p1 != 0.0 || p2 != 0.0 || k3 != 0.0; }
 };
 
-// A camera by name (freiburg1, freiburg2, freiburg3), or "fx,fy,cx,cy" with optionally
+// A camera by name (tum, freiburg1, freiburg2, freiburg3), or "fx,fy,cx,cy" with optionally
 // ",k1,k2,p1,p2,k3" after it; units_per_metre is left as it is. False with the reason.
 bool parseDepthIntrinsics(const std::string& text, DepthIntrinsics* intrinsics, std::string* error);
 
