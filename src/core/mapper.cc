@@ -283,8 +283,9 @@ bool Mapper::load(const std::string& path, std::string* error) {
   // the fixed frame's z = 0 until frames find a floor again. Read first: a height map that cannot
   // be read refuses the load, and the current map and floor stay.
   HeightMap heights;
-  const std::size_t dot = path.find_last_of('.');
-  const std::string heights_path = path.substr(0, dot == std::string::npos ? path.size() : dot) + "_heights.yaml";
+  const bool saved_name = path.size() > 3 && (path.compare(path.size() - 3, 3, ".bt") == 0 ||
+                                               path.compare(path.size() - 3, 3, ".ot") == 0);
+  const std::string heights_path = path.substr(0, saved_name ? path.size() - 3 : path.size()) + "_heights.yaml";
   const std::string id = readSaveId(path);
   if (!id.empty() && readSaveId(heights_path) == id) {
     if (!readHeightMap(heights_path, &heights, error)) {
