@@ -292,7 +292,8 @@ bool Mapper::load(const std::string& path, std::string* error) {
       *error = "the map's floor: " + *error;
       return false;
     }
-    if (std::abs(heights.resolution - tree->getResolution()) > 1e-9 * tree->getResolution()) {
+    // (The .yaml holds six significant digits.)
+    if (std::abs(heights.resolution - tree->getResolution()) > 1e-5 * tree->getResolution()) {
       *error = heights_path + ": resolution " + std::to_string(heights.resolution) + ", the map's is " +
                std::to_string(tree->getResolution());
       return false;

@@ -22,9 +22,8 @@ struct DepthIntrinsics {
   double k1 = 0.0, k2 = 0.0, p1 = 0.0, p2 = 0.0, k3 = 0.0;
   // The conversion the TUM benchmark documents for the depth images of every sequence: the OpenNI
   // driver undistorted them and registered them to the colour camera with the Kinect's factory
-  // calibration (ROS's default intrinsics). On fr1 rpy it puts the floor where the motion capture
-  // has it (z = 0 within 1 mm), where the colour camera's calibration below puts it 4 cm up, rising
-  // towards the images' edges.
+  // calibration (ROS's default intrinsics). The colour calibrations below do not describe those
+  // images: through them fr1's floor lies off the motion capture's (doc/benchmarks.md).
   static DepthIntrinsics tum() { return {525.0, 525.0, 319.5, 239.5}; }
   // The TUM benchmark's calibrations of the colour cameras, for images in their raw geometry.
   // freiburg1's and freiburg2's lenses distort: their coefficients are applied here, as a ROS
