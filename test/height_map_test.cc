@@ -47,14 +47,24 @@ std::vector<Eigen::Vector3f> floorAndBox() {
   return points;
 }
 
-}  // namespace
-
-TEST(HeightMap, HoldsTheFloorFoundAndTheTopOfWhatStandsOnIt) {
+// The navigation band: the box stands in it.
+MapperOptions navigationBand() {
   MapperOptions options;
   options.slice.min_z = 0.05;
   options.slice.max_z = 0.80;
-  Mapper mapper(options);
-  for (int k = 0; k < 3; ++k) ASSERT_TRUE(mapper.insertPoints(Eigen::Vector3d(0.0, 0.0, -0.3), floorAndBox()).ok());
+  return options;
+}
+
+// Three frames of floorAndBox() from 1.2 m above the floor.
+void mapFloorAndBox(Mapper* mapper) {
+  for (int k = 0; k < 3; ++k) ASSERT_TRUE(mapper->insertPoints(Eigen::Vector3d(0.0, 0.0, -0.3), floorAndBox()).ok());
+}
+
+}  // namespace
+
+TEST(HeightMap, HoldsTheFloorFoundAndTheTopOfWhatStandsOnIt) {
+  Mapper mapper(navigationBand());
+  mapFloorAndBox(&mapper);
   const GridImage frame = gridImageOf(mapper.slice());
   const HeightMap map = heightMapOf(mapper.tree(), mapper.floor(), frame);
   ASSERT_FALSE(map.empty());
@@ -112,11 +122,9 @@ TEST(HeightMap, AMapWithoutAFloorFoundSavesNone) {
 }
 
 TEST(HeightMap, ALoadedMapKeepsTheFloorItWasFoundWith) {
-  MapperOptions options;
-  options.slice.min_z = 0.05;
-  options.slice.max_z = 0.80;
+  const MapperOptions options = navigationBand();
   Mapper mapper(options);
-  for (int k = 0; k < 3; ++k) ASSERT_TRUE(mapper.insertPoints(Eigen::Vector3d(0.0, 0.0, -0.3), floorAndBox()).ok());
+  mapFloorAndBox(&mapper);
   const GridImage saved = gridImageOf(mapper.slice());
   TempDir dir;
   const std::string prefix = dir.path() + "/box";
