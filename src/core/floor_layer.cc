@@ -16,6 +16,18 @@ const char* floorSourceName(FloorSource source) {
   }
 }
 
+namespace {
+
+// A tile that knows no cell (its version's `since` is the caller's to set).
+std::shared_ptr<FloorView::Tile> blankTile() {
+  auto tile = std::make_shared<FloorView::Tile>();
+  std::fill(std::begin(tile->height), std::end(tile->height), std::numeric_limits<float>::quiet_NaN());
+  std::fill(std::begin(tile->weight), std::end(tile->weight), std::uint8_t{0});
+  return tile;
+}
+
+}  // namespace
+
 FloorLayer::FloorLayer(double resolution, const FloorOptions& options)
     : resolution_(resolution), inverse_resolution_(1.0 / resolution), options_(options) {
   known_[0] = Known();
@@ -58,9 +70,7 @@ void FloorLayer::restore(const std::vector<std::pair<std::uint32_t, float>>& cel
     const int kx = int(cell & 0xffff), ky = int(cell >> 16);
     std::shared_ptr<Tile>& tile = tiles_[tileId(kx >> FloorView::kTileBits, ky >> FloorView::kTileBits)];
     if (!tile) {
-      tile = std::make_shared<Tile>();
-      std::fill(std::begin(tile->height), std::end(tile->height), std::numeric_limits<float>::quiet_NaN());
-      std::fill(std::begin(tile->weight), std::end(tile->weight), std::uint8_t{0});
+      tile = blankTile();
       tile->since = folded_;  // what every frame to come is measured against
     }
     const int i = FloorView::indexInTile(kx, ky);
@@ -144,9 +154,7 @@ std::shared_ptr<const FloorLayer::Tile> FloorLayer::sharedTileAsOf(std::uint32_t
 FloorLayer::Tile& FloorLayer::writableTile(int tx, int ty) {
   std::shared_ptr<Tile>& tile = tiles_[tileId(tx, ty)];
   if (!tile) {
-    tile = std::make_shared<Tile>();
-    std::fill(std::begin(tile->height), std::end(tile->height), std::numeric_limits<float>::quiet_NaN());
-    std::fill(std::begin(tile->weight), std::end(tile->weight), std::uint8_t{0});
+    tile = blankTile();
     tile->since = folded_ + 1;
   } else if (tile->since != folded_ + 1) {
     auto copy = std::make_shared<Tile>(*tile);
@@ -358,14 +366,8 @@ FloorView FloorLayer::observe(std::uint64_t frame, const Eigen::Vector3d& sensor
       const std::size_t t = std::size_t((ky >> FloorView::kTileBits) - view.ty0_) * view.tiles_x_ +
                             std::size_t((kx >> FloorView::kTileBits) - view.tx0_);
       if (!own[t]) {
-        own[t] = std::make_shared<Tile>();  // the data only: no versions
-        if (view.tiles_[t]) {
-          std::copy(std::begin(view.tiles_[t]->height), std::end(view.tiles_[t]->height), own[t]->height);
-          std::copy(std::begin(view.tiles_[t]->weight), std::end(view.tiles_[t]->weight), own[t]->weight);
-        } else {
-          std::fill(std::begin(own[t]->height), std::end(own[t]->height), std::numeric_limits<float>::quiet_NaN());
-          std::fill(std::begin(own[t]->weight), std::end(own[t]->weight), std::uint8_t{0});
-        }
+        own[t] = view.tiles_[t] ? std::make_shared<Tile>(*view.tiles_[t]) : blankTile();
+        own[t]->before.reset();  // the data only: no versions
         view.tiles_[t] = own[t];
       }
       Tile& tile = *own[t];

@@ -185,20 +185,30 @@ bool parseDepthIntrinsics(const std::string& text, DepthIntrinsics* intrinsics, 
   return true;
 }
 
-Eigen::Vector2d distortRay(const Eigen::Vector2d& ray, const DepthIntrinsics& k) {
+namespace {
+
+// The plumb-bob model's two parts at an undistorted ray: distorted = radial * ray + tangential.
+void lensTerms(const Eigen::Vector2d& ray, const DepthIntrinsics& k, double* radial, Eigen::Vector2d* tangential) {
   const double x = ray.x(), y = ray.y(), r2 = x * x + y * y;
-  const double radial = 1.0 + r2 * (k.k1 + r2 * (k.k2 + r2 * k.k3));
-  return {x * radial + 2.0 * k.p1 * x * y + k.p2 * (r2 + 2.0 * x * x),
-          y * radial + k.p1 * (r2 + 2.0 * y * y) + 2.0 * k.p2 * x * y};
+  *radial = 1.0 + r2 * (k.k1 + r2 * (k.k2 + r2 * k.k3));
+  *tangential = {2.0 * k.p1 * x * y + k.p2 * (r2 + 2.0 * x * x), k.p1 * (r2 + 2.0 * y * y) + 2.0 * k.p2 * x * y};
+}
+
+}  // namespace
+
+Eigen::Vector2d distortRay(const Eigen::Vector2d& ray, const DepthIntrinsics& k) {
+  double radial;
+  Eigen::Vector2d tangential;
+  lensTerms(ray, k, &radial, &tangential);
+  return ray * radial + tangential;
 }
 
 Eigen::Vector2d undistortRay(const Eigen::Vector2d& distorted, const DepthIntrinsics& k) {
   Eigen::Vector2d ray = distorted;
   for (int round = 0; round < 100; ++round) {
-    const double x = ray.x(), y = ray.y(), r2 = x * x + y * y;
-    const double radial = 1.0 + r2 * (k.k1 + r2 * (k.k2 + r2 * k.k3));
-    const Eigen::Vector2d tangential(2.0 * k.p1 * x * y + k.p2 * (r2 + 2.0 * x * x),
-                                     k.p1 * (r2 + 2.0 * y * y) + 2.0 * k.p2 * x * y);
+    double radial;
+    Eigen::Vector2d tangential;
+    lensTerms(ray, k, &radial, &tangential);
     const Eigen::Vector2d next = (distorted - tangential) / radial;
     const bool settled = (next - ray).norm() < 1e-12;
     ray = next;
