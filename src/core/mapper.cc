@@ -96,6 +96,20 @@ class FloorTurn {
   std::uint64_t frame_;
 };
 
+// A cloud prepared by `inserter` against the floor layer as frame `floor_frame` (or the next),
+// the points its conversion left out counted with it.
+PreparedCloud prepareOnFloor(ScanInserter& inserter, FloorLayer* floor, double reach, const Eigen::Vector3d& origin,
+                             const std::vector<Eigen::Vector3f>& points, const ReadingCounts& left_out,
+                             std::optional<std::uint64_t> floor_frame) {
+  const std::uint64_t frame = floor_frame ? *floor_frame : floor->take();
+  const FloorTurn turn(floor, frame);
+  PreparedCloud prepared =
+      inserter.prepareCloud(origin, points, inserter.model().halfAngleFor(0.0), floorStageOf(floor, frame, reach));
+  prepared.result.readings += left_out;
+  prepared.floor_frame = frame;
+  return prepared;
+}
+
 }  // namespace
 
 InsertResult Mapper::insertPoints(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points) {
@@ -108,13 +122,9 @@ InsertResult Mapper::insert(const SensorCloud& cloud, std::optional<std::uint64_
 
 InsertResult Mapper::insertCloud(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points,
                                  std::optional<std::uint64_t> floor_frame, const ReadingCounts& left_out) {
-  const std::uint64_t frame = floor_frame ? *floor_frame : floor_->take();
-  const FloorTurn turn(floor_.get(), frame);
-  const double half_angle = inserter_->model().halfAngleFor(0.0);
-  InsertResult result = inserter_->applyCloud(
-      inserter_->prepareCloud(origin, points, half_angle, floorStageOf(floor_.get(), frame, floorReach())));
-  result.readings += left_out;
-  return record(std::move(result), /*cloud=*/true, frame);
+  PreparedCloud prepared = prepareOnFloor(*inserter_, floor_.get(), floorReach(), origin, points, left_out, floor_frame);
+  const std::optional<std::uint64_t> frame = prepared.floor_frame;
+  return record(inserter_->applyCloud(std::move(prepared)), /*cloud=*/true, frame);
 }
 
 double Mapper::floorReach() const {
@@ -181,13 +191,7 @@ PreparedCloud CloudPreparer::prepare(const SensorCloud& cloud, std::optional<std
     prepared.result.readings += cloud.left_out;
     return prepared;
   }
-  const std::uint64_t frame = floor_frame ? *floor_frame : floor_->take();
-  const FloorTurn turn(floor_, frame);
-  PreparedCloud prepared = inserter_.prepareCloud(cloud.origin, cloud.points, inserter_.model().halfAngleFor(0.0),
-                                                  floorStageOf(floor_, frame, floor_reach_));
-  prepared.result.readings += cloud.left_out;
-  prepared.floor_frame = frame;
-  return prepared;
+  return prepareOnFloor(inserter_, floor_, floor_reach_, cloud.origin, cloud.points, cloud.left_out, floor_frame);
 }
 
 std::unique_ptr<CloudPreparer> Mapper::cloudPreparer() const {
