@@ -160,7 +160,7 @@ class ScanEvidence {
     count_ = 0;
   }
   EvidenceCombining combining_;
-  std::uint32_t* cells_ = nullptr;  // calloc'ed: pages a scan never reaches are never made resident
+  std::uint32_t* cells_ = nullptr;  // mapped anew (mapWindow): pages a scan never reaches are never made resident
   std::size_t capacity_ = 0;
   unsigned shift_y_ = 0, shift_z_ = 0;
   std::uint32_t mask_x_ = 0, mask_y_ = 0;
