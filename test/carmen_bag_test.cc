@@ -88,7 +88,8 @@ TEST(CarmenBag, IntelDatasetRoundTrip) {
 }
 
 // A depth camera's bag: clouds placed through the bag's tf at their stamps, in the bag's order
-// with the scans; one before any tf and one with a broken layout counted, not handed on.
+// with the scans; one whose transform is recorded after it held until it comes; one before any
+// tf and one with a broken layout counted, not handed on.
 TEST(BagClouds, CloudsComeThroughTheBagsTfInOrderWithTheScans) {
   char tmpl[] = "/tmp/osm_bag_clouds_XXXXXX";
   const std::string dir = ::mkdtemp(tmpl);
@@ -126,6 +127,11 @@ TEST(BagClouds, CloudsComeThroughTheBagsTfInOrderWithTheScans) {
     sensor_msgs::PointCloud2 broken = cloudAt(103.0);
     broken.data.resize(4);  // less data than 2 points declare
     bag.write("/camera/points", ros::Time(103.0), broken);
+    // A cloud whose transform is recorded 0.3 s after it: held until it comes, then placed.
+    bag.write("/camera/points", ros::Time(106.0), cloudAt(106.0));
+    tf2_msgs::TFMessage late;
+    late.transforms.push_back(tools::planarTransform("odom", "base_link", ros::Time(106.0), 10.0, 0.0, 0.0, M_PI / 2));
+    bag.write("/tf", ros::Time(106.3), late);
   }
   std::vector<char> order;
   std::vector<SensorCloud> clouds;
@@ -138,10 +144,11 @@ TEST(BagClouds, CloudsComeThroughTheBagsTfInOrderWithTheScans) {
   std::map<std::string, std::size_t> skipped;
   std::string error;
   ASSERT_TRUE(tools::readBag(path, {{"scan"}, {"camera/points"}}, "odom", handlers, &skipped, &error)) << error;
-  EXPECT_EQ(std::string(order.begin(), order.end()), "scscscscsc");
+  EXPECT_EQ(std::string(order.begin(), order.end()), "scscscscscc");
   EXPECT_EQ(skipped["cloud_no_transform"], 1u);
   EXPECT_EQ(skipped["cloud_short_data"], 1u);
-  ASSERT_EQ(clouds.size(), 5u);
+  ASSERT_EQ(clouds.size(), 6u);
+  EXPECT_TRUE(clouds[5].origin.isApprox(Eigen::Vector3d(10.0, 0.1, 0.3), 1e-6)) << clouds[5].origin.transpose();
   // The camera 0.1 m ahead of a base at (2k, 0) facing +y, 0.3 m up; its point 1 m ahead of it.
   for (int k = 0; k < 5; ++k) {
     EXPECT_TRUE(clouds[k].origin.isApprox(Eigen::Vector3d(2.0 * k, 0.1, 0.3), 1e-6)) << clouds[k].origin.transpose();
@@ -152,7 +159,7 @@ TEST(BagClouds, CloudsComeThroughTheBagsTfInOrderWithTheScans) {
   // The clouds alone; and a bag without the topic is an error.
   order.clear();
   ASSERT_TRUE(tools::readBag(path, {{}, {"/camera/points"}}, "odom", handlers, &skipped, &error)) << error;
-  EXPECT_EQ(std::string(order.begin(), order.end()), "ccccc");
+  EXPECT_EQ(std::string(order.begin(), order.end()), "cccccc");
   EXPECT_FALSE(tools::readBag(path, {{}, {"/no/such/topic"}}, "odom", handlers, &skipped, &error));
   EXPECT_NE(error.find("no messages on topic '/no/such/topic'"), std::string::npos) << error;
   std::system(("rm -rf " + dir).c_str());

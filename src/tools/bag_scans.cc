@@ -9,6 +9,7 @@
 #include <tf2_eigen/tf2_eigen.h>
 #include <tf2_msgs/TFMessage.h>
 
+#include <deque>
 #include <set>
 
 #include "ros/laser_scan_conversion.h"
@@ -20,57 +21,45 @@ namespace {
 
 std::string absoluteTopic(const std::string& topic) { return topic.empty() || topic[0] == '/' ? topic : "/" + topic; }
 
-// One sensor message placed through the bag's tf and converted to the core's type, then handed
-// on; or the reason it is not, counted.
-template <typename Msg, typename Core, typename Convert>
-void placeAndHandOn(const rosbag::MessageInstance& m, const tf2::BufferCore& buffer, const std::string& fixed_frame,
-                    const char* wrong_type, const char* no_transform, Convert convert,
-                    const std::function<void(const Core&)>& hand_on, std::map<std::string, std::size_t>* skipped) {
-  const auto msg = m.instantiate<Msg>();
+// One sensor message read and held (`held`) until tf can place it; then converted to the core's
+// type and handed on, or the reason it is not counted. A message of the wrong type is counted
+// at once.
+template <typename Msg, typename Core, typename Convert, typename Held>
+void hold(const rosbag::MessageInstance& m, const char* wrong_type, const char* no_transform, Convert convert,
+          const std::function<void(const Core&)>& hand_on, std::map<std::string, std::size_t>* skipped,
+          std::deque<Held>* held) {
+  const boost::shared_ptr<const Msg> msg = m.instantiate<Msg>();
   if (!msg) {
     (*skipped)[wrong_type]++;
     return;
   }
-  Eigen::Isometry3d pose;
-  try {
-    pose = tf2::transformToEigen(buffer.lookupTransform(fixed_frame, msg->header.frame_id, msg->header.stamp));
-  } catch (const tf2::TransformException&) {
-    (*skipped)[no_transform]++;
-    return;
-  }
-  Core core;
-  const ros_adapter::ScanRejection rejection = convert(msg, pose, &core);
-  if (rejection.rejected()) {
-    (*skipped)[rejection.key]++;
-    return;
-  }
-  if (hand_on) hand_on(core);
+  const std::function<void(const Core&)>* on = &hand_on;  // the caller's, which outlives the bag's reading
+  held->push_back({m.getTime(), msg->header.stamp, msg->header.frame_id, [=](const Eigen::Isometry3d* pose) {
+                     if (!pose) {
+                       (*skipped)[no_transform]++;
+                       return;
+                     }
+                     Core core;
+                     const ros_adapter::ScanRejection rejection = convert(msg, *pose, &core);
+                     if (rejection.rejected()) {
+                       (*skipped)[rejection.key]++;
+                       return;
+                     }
+                     if (*on) (*on)(core);
+                   }});
 }
 
 }  // namespace
 
+// The bag is read once, in its order: tf as it comes, each sensor message held until tf can place
+// it (as the node's tf filter holds it). A first pass over the bag's tf alone read every chunk of
+// a camera's bag, since its tf lies in the chunks beside the clouds: the whole bag twice.
 bool readBag(const std::string& path, const BagTopics& topics, const std::string& fixed_frame,
              const BagHandlers& handlers, std::map<std::string, std::size_t>* skipped, std::string* error,
              const std::function<void(double)>& progress) {
   try {
     rosbag::Bag bag(path, rosbag::bagmode::Read);
-    // Pass 1: all of the bag's tf, so a message can use transforms recorded just after it.
-    rosbag::View tf_view(bag, rosbag::TopicQuery(std::vector<std::string>{"/tf", "/tf_static", "tf", "tf_static"}));
-    const ros::Duration span = tf_view.getEndTime() - tf_view.getBeginTime();
-    tf2::BufferCore buffer(span + ros::Duration(10.0));
-    for (const rosbag::MessageInstance& m : tf_view) {
-      const auto tf = m.instantiate<tf2_msgs::TFMessage>();
-      if (!tf) continue;
-      const bool is_static = m.getTopic().find("tf_static") != std::string::npos;
-      for (const auto& t : tf->transforms) {
-        try {
-          buffer.setTransform(t, "bag", is_static);
-        } catch (const tf2::TransformException&) {
-          (*skipped)["bad_tf"]++;
-        }
-      }
-    }
-    // Pass 2: the sensors' messages, in the bag's order.
+    const std::set<std::string> tf_topics = {"/tf", "/tf_static"};
     std::set<std::string> scan_topics;  // absolute names
     std::vector<std::string> wanted;  // as given, and absolute (a bag may record either)
     for (const std::string& t : topics.scans) {
@@ -85,28 +74,8 @@ bool readBag(const std::string& path, const BagTopics& topics, const std::string
       *error = "no scan or cloud topic given";
       return false;
     }
-    rosbag::View view(bag, rosbag::TopicQuery(wanted));
-    const std::size_t total = view.size();
-    std::size_t seen = 0;
-    for (const rosbag::MessageInstance& m : view) {
-      if (progress && seen++ % 100 == 0) progress(total ? double(seen) / total : 1.0);
-      const std::string topic = absoluteTopic(m.getTopic());
-      if (scan_topics.count(topic)) {
-        placeAndHandOn<sensor_msgs::LaserScan, Scan>(
-            m, buffer, fixed_frame, "not_a_laser_scan", "no_transform",
-            [](const sensor_msgs::LaserScan::ConstPtr& msg, const Eigen::Isometry3d& pose, Scan* out) {
-              return ros_adapter::toCoreScan(*msg, pose, out);
-            },
-            handlers.scan, skipped);
-      } else {
-        placeAndHandOn<sensor_msgs::PointCloud2, DeferredCloud>(
-            m, buffer, fixed_frame, "cloud_not_a_point_cloud2", "cloud_no_transform",
-            [](const sensor_msgs::PointCloud2::ConstPtr& msg, const Eigen::Isometry3d& pose, DeferredCloud* out) {
-              return ros_adapter::toDeferredCloud(msg, pose, out);
-            },
-            handlers.cloud, skipped);
-      }
-    }
+    rosbag::View sensors(bag, rosbag::TopicQuery(wanted));
+    const std::size_t total = sensors.size();
     if (total == 0) {
       std::string names;
       std::size_t count = 0;
@@ -118,6 +87,72 @@ bool readBag(const std::string& path, const BagTopics& topics, const std::string
       *error = path + ": no messages on topic" + (count > 1 ? "s " : " ") + names;
       return false;
     }
+    std::vector<std::string> read = wanted;
+    read.insert(read.end(), {"/tf", "/tf_static", "tf", "tf_static"});
+    rosbag::View view(bag, rosbag::TopicQuery(read));
+    // Every transform of the bag is kept: a message may be stamped long before it was recorded.
+    tf2::BufferCore buffer(view.getEndTime() - view.getBeginTime() + ros::Duration(10.0));
+    // Sensor messages read and not yet placed, in the bag's order; each is placed once tf can
+    // place it, or once the bag has gone kTfWait (bag time) or kMaxHeld messages past it (its
+    // transform is not coming: it is counted), or at the end of the bag.
+    const ros::Duration kTfWait(1.0);
+    constexpr std::size_t kMaxHeld = 32;
+    struct Held {
+      ros::Time recorded, stamp;
+      std::string frame;
+      std::function<void(const Eigen::Isometry3d*)> place;  // null: no transform
+    };
+    std::deque<Held> held;
+    const auto placeReady = [&](const ros::Time& now, bool end) {
+      while (!held.empty()) {
+        Held& h = held.front();
+        const bool ready = buffer.canTransform(fixed_frame, h.frame, h.stamp);
+        if (!ready && !end && now < h.recorded + kTfWait && held.size() <= kMaxHeld) return;
+        if (ready) {
+          const Eigen::Isometry3d pose = tf2::transformToEigen(buffer.lookupTransform(fixed_frame, h.frame, h.stamp));
+          h.place(&pose);
+        } else {
+          h.place(nullptr);
+        }
+        held.pop_front();
+      }
+    };
+    std::size_t seen = 0;
+    for (const rosbag::MessageInstance& m : view) {
+      const std::string topic = absoluteTopic(m.getTopic());
+      if (tf_topics.count(topic)) {
+        if (const auto tf = m.instantiate<tf2_msgs::TFMessage>()) {
+          const bool is_static = topic == "/tf_static";
+          for (const auto& t : tf->transforms) {
+            try {
+              buffer.setTransform(t, "bag", is_static);
+            } catch (const tf2::TransformException&) {
+              (*skipped)["bad_tf"]++;
+            }
+          }
+        }
+        placeReady(m.getTime(), false);
+        continue;
+      }
+      if (progress && seen++ % 100 == 0) progress(double(seen) / total);
+      if (scan_topics.count(topic)) {
+        hold<sensor_msgs::LaserScan, Scan>(
+            m, "not_a_laser_scan", "no_transform",
+            [](const sensor_msgs::LaserScan::ConstPtr& msg, const Eigen::Isometry3d& pose, Scan* out) {
+              return ros_adapter::toCoreScan(*msg, pose, out);
+            },
+            handlers.scan, skipped, &held);
+      } else {
+        hold<sensor_msgs::PointCloud2, DeferredCloud>(
+            m, "cloud_not_a_point_cloud2", "cloud_no_transform",
+            [](const sensor_msgs::PointCloud2::ConstPtr& msg, const Eigen::Isometry3d& pose, DeferredCloud* out) {
+              return ros_adapter::toDeferredCloud(msg, pose, out);
+            },
+            handlers.cloud, skipped, &held);
+      }
+      placeReady(m.getTime(), false);
+    }
+    placeReady(ros::TIME_MAX, true);
   } catch (const std::exception& e) {
     *error = path + ": " + e.what();
     return false;
