@@ -10,6 +10,7 @@
 #include <tf2_msgs/TFMessage.h>
 
 #include <deque>
+#include <optional>
 #include <set>
 
 #include "ros/laser_scan_conversion.h"
@@ -108,12 +109,14 @@ bool readBag(const std::string& path, const BagTopics& topics, const std::string
         Held& h = held.front();
         const bool ready = buffer.canTransform(fixed_frame, h.frame, h.stamp);
         if (!ready && !end && now < h.recorded + kTfWait && held.size() <= kMaxHeld) return;
+        std::optional<Eigen::Isometry3d> pose;
         if (ready) {
-          const Eigen::Isometry3d pose = tf2::transformToEigen(buffer.lookupTransform(fixed_frame, h.frame, h.stamp));
-          h.place(&pose);
-        } else {
-          h.place(nullptr);
+          try {
+            pose = tf2::transformToEigen(buffer.lookupTransform(fixed_frame, h.frame, h.stamp));
+          } catch (const tf2::TransformException&) {
+          }
         }
+        h.place(pose ? &*pose : nullptr);
         held.pop_front();
       }
     };
