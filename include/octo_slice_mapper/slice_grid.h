@@ -3,6 +3,7 @@
 
 #include <octomap/OcTree.h>
 
+#include <array>
 #include <cstdint>
 #include <unordered_map>
 #include <utility>
@@ -126,9 +127,11 @@ class SliceGrid {
   };
   std::vector<BandLayer> band_layers_;
   std::vector<std::uint32_t> columns_;  // updateColumns' scratch: the columns to recompute
+  std::vector<std::pair<std::uint32_t, int>> columns_moved_;  // shiftColumns' scratch: the shifts that change
   std::vector<std::int8_t> data_;
   std::uint64_t geometry_ = 0;
   std::unordered_map<std::uint32_t, int> shift_;  // the shifted columns
+  std::array<std::uint32_t, 255> shift_counts_{};  // shift_'s columns per shift (clamped to a signed byte) + 127
   int shift_min_ = 0, shift_max_ = 0;              // bounds of their shifts (and 0)
   // shift_ over the grid's cells (as data_), for a lookup per changed voxel; empty while no
   // column is shifted. Shifts beyond a signed byte are clamped (6 m at 0.05 m).

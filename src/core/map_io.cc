@@ -465,18 +465,25 @@ bool addPng(const GridImage& grid, const std::string& path, FileSet* files, std:
   const int scale = std::max(1, (kMinPictureSide + std::max(grid.width, grid.height) - 1) / std::max(grid.width, grid.height));
   const int out_w = grid.width * scale, out_h = grid.height * scale;
   std::string bytes, reason;
+  // Each cell's row of pixels is drawn once and copied to the `scale` rows it covers.
+  std::vector<std::uint8_t> drawn(std::size_t(out_w) * 3);
+  int drawn_j = -1;
   const bool encoded = encodeRgbPng(out_w, out_h, [&](int y, std::uint8_t* row) {
     const int j = grid.height - 1 - y / scale;  // north up
-    for (int i = 0; i < out_w; ++i) {
-      const int v = grid.at(i / scale, j);
-      std::uint8_t* px = &row[std::size_t(i) * 3];
-      if (v < 0) {
-        px[0] = 196, px[1] = 204, px[2] = 216;
-      } else {
-        const auto grey = static_cast<std::uint8_t>(std::lround(255.0 * (1.0 - v / 100.0)));
-        px[0] = px[1] = px[2] = grey;
+    if (j != drawn_j) {
+      for (int i = 0; i < out_w; ++i) {
+        const int v = grid.at(i / scale, j);
+        std::uint8_t* px = &drawn[std::size_t(i) * 3];
+        if (v < 0) {
+          px[0] = 196, px[1] = 204, px[2] = 216;
+        } else {
+          const auto grey = static_cast<std::uint8_t>(std::lround(255.0 * (1.0 - v / 100.0)));
+          px[0] = px[1] = px[2] = grey;
+        }
       }
+      drawn_j = j;
     }
+    std::copy(drawn.begin(), drawn.end(), row);
   }, &bytes, &reason);
   if (!encoded) {
     *error = reason + " while encoding " + path;

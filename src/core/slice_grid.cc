@@ -250,28 +250,44 @@ void SliceGrid::fillShiftGrid() {
 void SliceGrid::shiftColumns(const std::vector<std::pair<std::uint32_t, int>>& shifts) {
   if (shifts.empty()) return;
   KeyBox box;
+  const auto slot = [](int shift) { return std::size_t(std::clamp(shift, -127, 127) + 127); };
+  // A column keeps its value where its shift stays (most of a frame's floor cells: newly known at
+  // the fallback's level): only the others are read again.
+  std::vector<std::pair<std::uint32_t, int>>& moved = columns_moved_;
+  moved.clear();
   for (const auto& [column, shift] : shifts) {
-    if (shift == 0) shift_.erase(column);
-    else shift_[column] = shift;
     box.add(octomap::OcTreeKey(std::uint16_t(column & 0xFFFF), std::uint16_t(column >> 16), 0));
+    const auto it = shift_.find(column);
+    if ((it == shift_.end() ? 0 : it->second) == shift) continue;
+    if (it != shift_.end()) {
+      --shift_counts_[slot(it->second)];
+      if (shift == 0) shift_.erase(it);
+      else it->second = shift;
+    } else {
+      shift_.emplace(column, shift);
+    }
+    if (shift != 0) ++shift_counts_[slot(shift)];
+    moved.emplace_back(column, shift);
   }
+  // The bounds from the counts per shift: the shifted columns are many, a batch's changes few.
   shift_min_ = shift_max_ = 0;
-  for (const auto& [column, shift] : shift_) {
-    shift_min_ = std::min(shift_min_, std::clamp(shift, -127, 127));
-    shift_max_ = std::max(shift_max_, std::clamp(shift, -127, 127));
+  for (std::size_t k = 0; k < shift_counts_.size(); ++k) {
+    if (shift_counts_[k] == 0) continue;
+    shift_min_ = std::min(shift_min_, int(k) - 127);
+    shift_max_ = std::max(shift_max_, int(k) - 127);
   }
   ensureCovers(box.min[0], box.min[1], box.max[0], box.max[1]);
   if (shift_.empty()) {
     shift_grid_.clear();
   } else {
-    if (shift_grid_.size() != data_.size()) shift_grid_.assign(data_.size(), 0);
-    for (const auto& [column, shift] : shifts) {
+    if (shift_grid_.size() != data_.size()) fillShiftGrid();
+    for (const auto& [column, shift] : moved) {
       const int i = int(column & 0xFFFF) - origin_key_x_, j = int(column >> 16) - origin_key_y_;
       shift_grid_[std::size_t(j) * width_ + i] = static_cast<std::int8_t>(std::clamp(shift, -127, 127));
     }
   }
   findBandLayers();
-  for (const auto& [column, shift] : shifts) {
+  for (const auto& [column, shift] : moved) {
     const std::uint16_t kx = std::uint16_t(column & 0xFFFF), ky = std::uint16_t(column >> 16);
     data_[std::size_t(ky - origin_key_y_) * width_ + (kx - origin_key_x_)] = columnValue(kx, ky);
   }
