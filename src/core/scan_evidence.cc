@@ -17,7 +17,7 @@ constexpr std::size_t kHugePage = std::size_t{2} << 20;
 // Zero-filled words, mapped lazily by the system. The window is asked for transparent huge pages:
 // walks touch it all over, so with 4 KiB pages they miss the TLB at most steps, and each page
 // first read and then written faults twice (the zero page, then its own), with a TLB shootdown to
-// the other pipeline worker. Where the system gives no huge pages, plain pages work as before.
+// the other pipeline worker. Where the system gives no huge pages, plain pages work the same.
 std::uint32_t* mapWindow(std::size_t bytes) {
   void* p = mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
   if (p == MAP_FAILED) throw std::bad_alloc();
@@ -56,7 +56,7 @@ bool ScanEvidence::begin(const KeyBox& box, std::size_t max_adds) {
   if (bx + by >= 32 || (nz << (bx + by)) > kMaxCells) return false;
   const std::size_t cells = nz << (bx + by);
   if (cells > capacity_) {
-    // Zero-filled and lazily mapped by the system: a larger window costs only the pages used.
+    // Zero-filled and lazily mapped by the system: a larger window costs only the (huge) pages used.
     if (cells_) munmap(cells_, windowBytes(capacity_));
     cells_ = nullptr;
     capacity_ = 0;

@@ -23,8 +23,8 @@ namespace {
 std::string absoluteTopic(const std::string& topic) { return topic.empty() || topic[0] == '/' ? topic : "/" + topic; }
 
 // One sensor message read and held (`held`) until tf can place it; then converted to the core's
-// type and handed on, or the reason it is not counted. A message of the wrong type is counted
-// at once.
+// type and handed on, or, where it cannot be, the reason counted. A message of the wrong type is
+// counted at once.
 template <typename Msg, typename Core, typename Convert, typename Held>
 void hold(const rosbag::MessageInstance& m, const char* wrong_type, const char* no_transform, Convert convert,
           const std::function<void(const Core&)>& hand_on, std::map<std::string, std::size_t>* skipped,
@@ -53,8 +53,8 @@ void hold(const rosbag::MessageInstance& m, const char* wrong_type, const char* 
 }  // namespace
 
 // The bag is read once, in its order: tf as it comes, each sensor message held until tf can place
-// it (as the node's tf filter holds it). A first pass over the bag's tf alone read every chunk of
-// a camera's bag, since its tf lies in the chunks beside the clouds: the whole bag twice.
+// it (as the node's tf filter holds it). A pass over the bag's tf of its own would read every
+// chunk of a camera's bag, since its tf lies in the chunks beside the clouds: the whole bag twice.
 bool readBag(const std::string& path, const BagTopics& topics, const std::string& fixed_frame,
              const BagHandlers& handlers, std::map<std::string, std::size_t>* skipped, std::string* error,
              const std::function<void(double)>& progress) {
