@@ -88,8 +88,8 @@ TEST(CarmenBag, IntelDatasetRoundTrip) {
 }
 
 // A depth camera's bag: clouds placed through the bag's tf at their stamps, in the bag's order
-// with the scans; one whose transform is recorded after it held until it comes; one before any
-// tf and one with a broken layout counted, not handed on.
+// with the scans; one whose transform is recorded after it, and one between two transforms 1.1 s
+// apart, held until it comes; one before any tf and one with a broken layout counted, not handed on.
 TEST(BagClouds, CloudsComeThroughTheBagsTfInOrderWithTheScans) {
   char tmpl[] = "/tmp/osm_bag_clouds_XXXXXX";
   const std::string dir = ::mkdtemp(tmpl);
@@ -106,12 +106,7 @@ TEST(BagClouds, CloudsComeThroughTheBagsTfInOrderWithTheScans) {
       c.header.stamp = ros::Time(t);
       return c;
     };
-    bag.write("/camera/points", ros::Time(100.5), cloudAt(100.5));  // before any odom tf
-    for (int k = 0; k < 5; ++k) {
-      const double t = 101.0 + k;
-      tf2_msgs::TFMessage tf;
-      tf.transforms.push_back(tools::planarTransform("odom", "base_link", ros::Time(t), 2.0 * k, 0.0, 0.0, M_PI / 2));
-      bag.write("/tf", ros::Time(t), tf);
+    const auto scanAt = [](double t) {
       sensor_msgs::LaserScan scan;
       scan.header.stamp = ros::Time(t);
       scan.header.frame_id = "laser";
@@ -121,7 +116,15 @@ TEST(BagClouds, CloudsComeThroughTheBagsTfInOrderWithTheScans) {
       scan.range_min = 0.1f;
       scan.range_max = 10.0f;
       scan.ranges = {1.0f, 2.0f, 3.0f};
-      bag.write("/scan", ros::Time(t), scan);
+      return scan;
+    };
+    bag.write("/camera/points", ros::Time(100.5), cloudAt(100.5));  // before any odom tf
+    for (int k = 0; k < 5; ++k) {
+      const double t = 101.0 + k;
+      tf2_msgs::TFMessage tf;
+      tf.transforms.push_back(tools::planarTransform("odom", "base_link", ros::Time(t), 2.0 * k, 0.0, 0.0, M_PI / 2));
+      bag.write("/tf", ros::Time(t), tf);
+      bag.write("/scan", ros::Time(t), scanAt(t));
       bag.write("/camera/points", ros::Time(t + 0.01), cloudAt(t));  // recorded just after the scan
     }
     sensor_msgs::PointCloud2 broken = cloudAt(103.0);
@@ -132,11 +135,22 @@ TEST(BagClouds, CloudsComeThroughTheBagsTfInOrderWithTheScans) {
     tf2_msgs::TFMessage late;
     late.transforms.push_back(tools::planarTransform("odom", "base_link", ros::Time(106.0), 10.0, 0.0, 0.0, M_PI / 2));
     bag.write("/tf", ros::Time(106.3), late);
+    // Slow tf: a scan between two transforms 1.1 s apart waits for the second.
+    sensor_msgs::LaserScan between = scanAt(106.5);
+    bag.write("/scan", ros::Time(106.5), between);
+    bag.write("/camera/points", ros::Time(107.55), cloudAt(107.0));  // read while the scan waits
+    tf2_msgs::TFMessage next;
+    next.transforms.push_back(tools::planarTransform("odom", "base_link", ros::Time(107.1), 12.0, 0.0, 0.0, M_PI / 2));
+    bag.write("/tf", ros::Time(107.6), next);
   }
   std::vector<char> order;
   std::vector<SensorCloud> clouds;
+  std::vector<Scan> scans;
   tools::BagHandlers handlers;
-  handlers.scan = [&](const Scan&) { order.push_back('s'); };
+  handlers.scan = [&](const Scan& s) {
+    order.push_back('s');
+    scans.push_back(s);
+  };
   handlers.cloud = [&](const DeferredCloud& c) {  // its points made here, as a pipeline's worker would
     order.push_back('c');
     clouds.push_back(c.made(FlyingPixelOptions()));
@@ -144,10 +158,12 @@ TEST(BagClouds, CloudsComeThroughTheBagsTfInOrderWithTheScans) {
   std::map<std::string, std::size_t> skipped;
   std::string error;
   ASSERT_TRUE(tools::readBag(path, {{"scan"}, {"camera/points"}}, "odom", handlers, &skipped, &error)) << error;
-  EXPECT_EQ(std::string(order.begin(), order.end()), "scscscscscc");
+  EXPECT_EQ(std::string(order.begin(), order.end()), "scscscscsccsc");
+  ASSERT_EQ(scans.size(), 6u);
+  EXPECT_NEAR(scans[5].sensor_pose.translation().x(), 10.0 + 2.0 * 0.5 / 1.1, 1e-6) << "placed between the two transforms";
   EXPECT_EQ(skipped["cloud_no_transform"], 1u);
   EXPECT_EQ(skipped["cloud_short_data"], 1u);
-  ASSERT_EQ(clouds.size(), 6u);
+  ASSERT_EQ(clouds.size(), 7u);
   EXPECT_TRUE(clouds[5].origin.isApprox(Eigen::Vector3d(10.0, 0.1, 0.3), 1e-6)) << clouds[5].origin.transpose();
   // The camera 0.1 m ahead of a base at (2k, 0) facing +y, 0.3 m up; its point 1 m ahead of it.
   for (int k = 0; k < 5; ++k) {
@@ -159,7 +175,7 @@ TEST(BagClouds, CloudsComeThroughTheBagsTfInOrderWithTheScans) {
   // The clouds alone; and a bag without the topic is an error.
   order.clear();
   ASSERT_TRUE(tools::readBag(path, {{}, {"/camera/points"}}, "odom", handlers, &skipped, &error)) << error;
-  EXPECT_EQ(std::string(order.begin(), order.end()), "cccccc");
+  EXPECT_EQ(std::string(order.begin(), order.end()), "ccccccc");
   EXPECT_FALSE(tools::readBag(path, {{}, {"/no/such/topic"}}, "odom", handlers, &skipped, &error));
   EXPECT_NE(error.find("no messages on topic '/no/such/topic'"), std::string::npos) << error;
   std::system(("rm -rf " + dir).c_str());

@@ -35,7 +35,7 @@ void hold(const rosbag::MessageInstance& m, const char* wrong_type, const char* 
     return;
   }
   const std::function<void(const Core&)>* on = &hand_on;  // the caller's, which outlives the bag's reading
-  held->push_back({m.getTime(), msg->header.stamp, msg->header.frame_id, [=](const Eigen::Isometry3d* pose) {
+  held->push_back({m.getTime(), msg->header.stamp, msg->header.frame_id, m.size(), [=](const Eigen::Isometry3d* pose) {
                      if (!pose) {
                        (*skipped)[no_transform]++;
                        return;
@@ -94,21 +94,24 @@ bool readBag(const std::string& path, const BagTopics& topics, const std::string
     // Every transform of the bag is kept: a message may be stamped long before it was recorded.
     tf2::BufferCore buffer(view.getEndTime() - view.getBeginTime() + ros::Duration(10.0));
     // Sensor messages read and not yet placed, in the bag's order; each is placed once tf can
-    // place it, or once the bag has gone kTfWait (bag time) or kMaxHeld messages past it (its
-    // transform is not coming: it is counted), or at the end of the bag.
-    const ros::Duration kTfWait(1.0);
-    constexpr std::size_t kMaxHeld = 32;
+    // place it, or given up (its transform is not coming: counted) once the bag has gone kTfWait
+    // past it (bag time: slow tf, a second apart, still places every message) or the messages
+    // held pass kMaxHeldBytes (a camera's 5 MB frames at 30 Hz: 3 s), or at the end of the bag.
+    const ros::Duration kTfWait(5.0);
+    constexpr std::size_t kMaxHeldBytes = std::size_t{512} << 20;
     struct Held {
       ros::Time recorded, stamp;
       std::string frame;
+      std::size_t bytes;  // as serialized
       std::function<void(const Eigen::Isometry3d*)> place;  // null: no transform
     };
     std::deque<Held> held;
+    std::size_t held_bytes = 0;
     const auto placeReady = [&](const ros::Time& now, bool end) {
       while (!held.empty()) {
         Held& h = held.front();
         const bool ready = buffer.canTransform(fixed_frame, h.frame, h.stamp);
-        if (!ready && !end && now < h.recorded + kTfWait && held.size() <= kMaxHeld) return;
+        if (!ready && !end && now < h.recorded + kTfWait && held_bytes <= kMaxHeldBytes) return;
         std::optional<Eigen::Isometry3d> pose;
         if (ready) {
           try {
@@ -117,6 +120,7 @@ bool readBag(const std::string& path, const BagTopics& topics, const std::string
           }
         }
         h.place(pose ? &*pose : nullptr);
+        held_bytes -= h.bytes;
         held.pop_front();
       }
     };
@@ -138,6 +142,7 @@ bool readBag(const std::string& path, const BagTopics& topics, const std::string
         continue;
       }
       if (progress && seen++ % 100 == 0) progress(double(seen) / total);
+      const std::size_t before = held.size();
       if (scan_topics.count(topic)) {
         hold<sensor_msgs::LaserScan, Scan>(
             m, "not_a_laser_scan", "no_transform",
@@ -153,6 +158,7 @@ bool readBag(const std::string& path, const BagTopics& topics, const std::string
             },
             handlers.cloud, skipped, &held);
       }
+      if (held.size() > before) held_bytes += held.back().bytes;
       placeReady(m.getTime(), false);
     }
     placeReady(ros::TIME_MAX, true);
