@@ -89,7 +89,7 @@ bool readBag(const std::string& path, const BagTopics& topics, const std::string
       return false;
     }
     std::vector<std::string> read = wanted;
-    read.insert(read.end(), {"/tf", "/tf_static", "tf", "tf_static"});
+    for (const std::string& t : tf_topics) read.push_back(t), read.push_back(t.substr(1));  // absolute, and as recorded without '/'
     rosbag::View view(bag, rosbag::TopicQuery(read));
     // Every transform of the bag is kept: a message may be stamped long before it was recorded.
     tf2::BufferCore buffer(view.getEndTime() - view.getBeginTime() + ros::Duration(10.0));
