@@ -42,7 +42,9 @@ TEST(FlyingPixels, AnEdgesMixedPixelsAreFlaggedAndTheSurfacesAreNot) {
   for (int v = 1; v + 1 < kH; ++v) {
     EXPECT_EQ(flags[std::size_t(v) * kW + 19], 1) << v;
     for (int u = 1; u + 1 < kW; ++u) {
-      if (u != 19) EXPECT_EQ(flags[std::size_t(v) * kW + u], 0) << u << " " << v;
+      if (u != 19) {
+        EXPECT_EQ(flags[std::size_t(v) * kW + u], 0) << u << " " << v;
+      }
     }
   }
   EXPECT_EQ(count, std::size_t(kH - 2));
@@ -73,18 +75,26 @@ TEST(FlyingPixels, OffOrNotOrganizedFlagsNothing) {
   EXPECT_EQ(flagFlyingPixels(frameOf(depth), kW * kH, 1, {}, &flags), 0u);  // an unorganized cloud
 }
 
-// The row judge flags exactly what the rule says, pixel by pixel: random ranges with depth edges,
-// noise and holes, for one, two and three neighbours needed, in a row whose length is not a
-// multiple of a vector's.
+// The row judge flags exactly what the rule says, pixel by pixel, for one, two and three
+// neighbours needed, in a row whose length is not a multiple of a vector's: random ranges with
+// depth edges, noise and holes; and smooth surfaces with a rare edge, hole or lone pixel (where
+// most pixels are settled by their left and right neighbours).
 TEST(FlyingPixels, TheRowJudgeFlagsExactlyWhatTheRuleSays) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<float> unit(0.0f, 1.0f);
   const int width = 71;
   std::vector<float> rows(3 * width);
-  for (int trial = 0; trial < 300; ++trial) {
+  for (int trial = 0; trial < 600; ++trial) {
+    const bool smooth = trial >= 300;
+    float surface = 1.0f + 3.0f * unit(rng);
     for (float& r : rows) {
       const float x = unit(rng);
-      r = x < 0.05f ? kNaN : x < 0.5f ? 1.5f + 0.01f * unit(rng) : x < 0.8f ? 3.0f + 0.05f * unit(rng) : 0.5f + 4.0f * unit(rng);
+      if (smooth) {
+        if (x < 0.02f) surface = 1.0f + 3.0f * unit(rng);  // a depth edge
+        r = x > 0.99f ? kNaN : x > 0.98f ? 0.5f + 4.0f * unit(rng) : surface + 0.01f * unit(rng);
+      } else {
+        r = x < 0.05f ? kNaN : x < 0.5f ? 1.5f + 0.01f * unit(rng) : x < 0.8f ? 3.0f + 0.05f * unit(rng) : 0.5f + 4.0f * unit(rng);
+      }
     }
     FlyingPixelOptions options;
     options.min_neighbours = 1 + trial % 3;

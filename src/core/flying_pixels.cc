@@ -3,6 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace octo_slice_mapper {
 
 std::size_t flagFlyingPixels(const std::vector<Eigen::Vector3f>& organized, int width, int height,
@@ -26,6 +30,21 @@ std::size_t flagFlyingPixels(const std::vector<Eigen::Vector3f>& organized, int 
   return count;
 }
 
+namespace {
+
+// Whether pixel u has fewer than `needed` close neighbours and a range: the rule itself.
+inline bool flyingAt(const float* up, const float* mid, const float* down, int u, float base, float per_metre,
+                     int needed) {
+  const float r = mid[u], gap = base + per_metre * r;
+  const int close = (std::abs(up[u - 1] - r) <= gap) + (std::abs(up[u] - r) <= gap) + (std::abs(up[u + 1] - r) <= gap) +
+                    (std::abs(mid[u - 1] - r) <= gap) + (std::abs(mid[u + 1] - r) <= gap) +
+                    (std::abs(down[u - 1] - r) <= gap) + (std::abs(down[u] - r) <= gap) +
+                    (std::abs(down[u + 1] - r) <= gap);
+  return (close < needed) & (r == r);
+}
+
+}  // namespace
+
 std::size_t flagFlyingRow(const float* up, const float* mid, const float* down, int width,
                           const FlyingPixelOptions& options, std::uint8_t* out) {
   std::fill_n(out, width, std::uint8_t{0});
@@ -35,14 +54,42 @@ std::size_t flagFlyingRow(const float* up, const float* mid, const float* down, 
   const float base = static_cast<float>(options.gap_base), per_metre = static_cast<float>(options.gap_per_metre);
   const int needed = options.min_neighbours;
   std::size_t count = 0;
-  // Branch-free per pixel, so that the compiler takes several at a time (-O3: CMakeLists.txt).
-  for (int u = 1; u + 1 < width; ++u) {
-    const float r = mid[u], gap = base + per_metre * r;
-    const int close = (std::abs(up[u - 1] - r) <= gap) + (std::abs(up[u] - r) <= gap) +
-                      (std::abs(up[u + 1] - r) <= gap) + (std::abs(mid[u - 1] - r) <= gap) +
-                      (std::abs(mid[u + 1] - r) <= gap) + (std::abs(down[u - 1] - r) <= gap) +
-                      (std::abs(down[u] - r) <= gap) + (std::abs(down[u + 1] - r) <= gap);
-    out[u] = static_cast<std::uint8_t>((close < needed) & (r == r));
+  int u = 1;
+#if defined(__SSE2__)
+  // Four pixels at a time. Nearly every pixel lies on a surface, where its left and right
+  // neighbours are both close: with two neighbours needed, that settles it, and the other six are
+  // read only for the few blocks of four at a depth edge or a hole's rim. A pixel without a
+  // range is never flying. Each comparison is the rule's own (|n - r| <= gap, false for NaN).
+  const __m128 base4 = _mm_set1_ps(base), per_metre4 = _mm_set1_ps(per_metre);
+  const __m128 sign = _mm_set1_ps(-0.0f);
+  const __m128i needed4 = _mm_set1_epi32(needed);
+  const bool two_settle = needed <= 2;
+  const auto close = [&](const float* n, __m128 r, __m128 gap) {
+    return _mm_cmple_ps(_mm_andnot_ps(sign, _mm_sub_ps(_mm_loadu_ps(n), r)), gap);
+  };
+  for (; u + 4 < width; u += 4) {
+    const __m128 r = _mm_loadu_ps(mid + u);
+    const __m128 gap = _mm_add_ps(base4, _mm_mul_ps(per_metre4, r));
+    const __m128 left = close(mid + u - 1, r, gap), right = close(mid + u + 1, r, gap);
+    const __m128 no_range = _mm_cmpunord_ps(r, r);
+    if (two_settle && _mm_movemask_ps(_mm_or_ps(_mm_and_ps(left, right), no_range)) == 0xF) continue;
+    // The count: each close neighbour's mask is -1.
+    __m128i n = _mm_add_epi32(_mm_castps_si128(left), _mm_castps_si128(right));
+    for (const float* row : {up, down}) {
+      n = _mm_add_epi32(n, _mm_castps_si128(close(row + u - 1, r, gap)));
+      n = _mm_add_epi32(n, _mm_castps_si128(close(row + u, r, gap)));
+      n = _mm_add_epi32(n, _mm_castps_si128(close(row + u + 1, r, gap)));
+    }
+    const __m128i few = _mm_cmpgt_epi32(needed4, _mm_sub_epi32(_mm_setzero_si128(), n));
+    const int flying = _mm_movemask_ps(_mm_andnot_ps(no_range, _mm_castsi128_ps(few)));
+    for (int k = 0; k < 4; ++k) {
+      out[u + k] = static_cast<std::uint8_t>((flying >> k) & 1);
+      count += out[u + k];
+    }
+  }
+#endif
+  for (; u + 1 < width; ++u) {
+    out[u] = flyingAt(up, mid, down, u, base, per_metre, needed);
     count += out[u];
   }
   return count;
