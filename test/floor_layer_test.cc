@@ -206,3 +206,40 @@ TEST(FloorLayer, LevelChangesAreTakenAsOfAFrameWhateverLaterFramesWereFoldedIn) 
   const FloorLayer::LevelChanges rest = layer.takeLevelChanges();
   EXPECT_EQ(rest.fallback_level, layer.fallbackLevel());
 }
+
+// The cells a caller gives (its end voxels' columns) stand for the samples' own: where they are
+// the same, so are the layer and the view; where a given cell differs, the floor found is kept
+// in the cell given.
+TEST(FloorLayer, CellsGivenStandForTheSamplesOwn) {
+  std::vector<Eigen::Vector3d> samples = floorFrame(-0.5);
+  addSurface(&samples, 0.0, 1.0, 0.0, 0.5, 0.4);  // a table: another column's surface
+  std::vector<std::uint32_t> cells;
+  for (const Eigen::Vector3d& p : samples) {
+    cells.push_back(std::uint32_t(floorKeyOf(p.x(), kResolution)) | std::uint32_t(floorKeyOf(p.y(), kResolution)) << 16);
+  }
+  FloorLayer computed(kResolution, {}), given(kResolution, {});
+  const Eigen::Vector3d sensor(0.0, 1.0, 1.0);
+  const FloorView a = computed.observe(sensor, samples, 10.0);
+  const FloorView b = given.observe(0, sensor, samples, 10.0, &cells);
+  EXPECT_EQ(computed.status().cells, given.status().cells);
+  for (double x = -0.3; x < 2.3; x += 0.07) {
+    for (double y = -0.3; y < 2.3; y += 0.07) {
+      ASSERT_EQ(a.heightAt(x, y), b.heightAt(x, y)) << x << " " << y;
+      ASSERT_EQ(b.heightAt(x, y), b.heightAtKeys(floorKeyOf(x, kResolution), floorKeyOf(y, kResolution), x, y));
+    }
+  }
+  // Every sample put in one column beyond the samples: only that column is known.
+  const int k = floorKeyOf(2.6, kResolution);
+  std::vector<std::uint32_t> far(samples.size(), std::uint32_t(k) | std::uint32_t(k) << 16);
+  FloorLayer moved(kResolution, {});
+  moved.observe(0, sensor, samples, 10.0, &far);
+  EXPECT_EQ(moved.status().cells, 1u);
+  std::size_t seen = 0;
+  moved.forEachCell([&](std::uint16_t kx, std::uint16_t ky, float h) {
+    EXPECT_EQ(kx, k);
+    EXPECT_EQ(ky, k);
+    EXPECT_NEAR(h, -0.5, 0.02);
+    ++seen;
+  });
+  EXPECT_EQ(seen, 1u);
+}

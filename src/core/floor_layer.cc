@@ -265,8 +265,8 @@ struct CellSet {
 }  // namespace
 
 FloorLayer::Fold FloorLayer::measure(const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples,
-                                     const Known& known, const FloorOptions& options,
-                                     double inverse_resolution) const {
+                                     const std::vector<std::uint32_t>* cells_given, const Known& known,
+                                     const FloorOptions& options, double inverse_resolution) const {
   Fold fold;
   fold.observed = true;
   fold.sensor = sensor;
@@ -276,27 +276,34 @@ FloorLayer::Fold FloorLayer::measure(const Eigen::Vector3d& sensor, const std::v
   if (!fit) return fold;
   fold.plane = BoundedPlane::of(*fit, options.extrapolation);
   // The cells it speaks for: where its floor returns lie, and every other column it saw.
-  std::vector<std::pair<int, int>> keys(samples.size());
-  CellSet cells;
-  for (std::size_t i = 0; i < samples.size(); ++i) {
-    keys[i] = {floorKeyScaled(samples[i].x(), inverse_resolution), floorKeyScaled(samples[i].y(), inverse_resolution)};
-    if (keys[i].first >= 0 && keys[i].second >= 0) cells.cover(keys[i].first, keys[i].second);
-  }
-  cells.allocate();
-  const auto cellOf = [](const std::pair<int, int>& k) { return std::uint32_t(k.first) | std::uint32_t(k.second) << 16; };
-  for (std::size_t i : fit->inliers) {
-    if (keys[i].first >= 0 && keys[i].second >= 0 && cells.add(keys[i].first, keys[i].second)) {
-      fold.floor_cells.push_back(cellOf(keys[i]));
+  constexpr std::uint32_t kNone = 0xffffffff;
+  const bool given = cells_given && cells_given->size() == samples.size();
+  std::vector<std::uint32_t> computed;
+  if (!given) {
+    computed.resize(samples.size());
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+      const int kx = floorKeyScaled(samples[i].x(), inverse_resolution), ky = floorKeyScaled(samples[i].y(), inverse_resolution);
+      computed[i] = kx >= 0 && ky >= 0 ? std::uint32_t(kx) | std::uint32_t(ky) << 16 : kNone;
     }
   }
-  for (const auto& k : keys) {
-    if (k.first >= 0 && k.second >= 0 && cells.add(k.first, k.second)) fold.other_cells.push_back(cellOf(k));
+  const std::vector<std::uint32_t>& keys = given ? *cells_given : computed;
+  CellSet cells;
+  for (std::uint32_t k : keys) {
+    if (k != kNone) cells.cover(int(k & 0xffff), int(k >> 16));
+  }
+  cells.allocate();
+  for (std::size_t i : fit->inliers) {
+    if (keys[i] != kNone && cells.add(int(keys[i] & 0xffff), int(keys[i] >> 16))) fold.floor_cells.push_back(keys[i]);
+  }
+  for (std::uint32_t k : keys) {
+    if (k != kNone && cells.add(int(k & 0xffff), int(k >> 16))) fold.other_cells.push_back(k);
   }
   return fold;
 }
 
 FloorView FloorLayer::observe(std::uint64_t frame, const Eigen::Vector3d& sensor,
-                              const std::vector<Eigen::Vector3d>& samples, double reach) {
+                              const std::vector<Eigen::Vector3d>& samples, double reach,
+                              const std::vector<std::uint32_t>* cells) {
   std::unique_lock<std::mutex> lock(mutex_);
   const bool fresh = frame >= folded_ && !waiting_.count(frame);
   std::uint64_t folded = folded_;
@@ -315,7 +322,7 @@ FloorView FloorLayer::observe(std::uint64_t frame, const Eigen::Vector3d& sensor
   const double inverse_resolution = inverse_resolution_;
   lock.unlock();
 
-  Fold measured = measure(sensor, samples, known, options, inverse_resolution);
+  Fold measured = measure(sensor, samples, cells, known, options, inverse_resolution);
 
   lock.lock();
   if (measured.plane && known.fallback_found && known.last_plane) {

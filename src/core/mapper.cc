@@ -78,8 +78,9 @@ namespace {
 
 // What frame `frame` is measured against: its floor found and folded into the layer in its turn.
 FloorStage floorStageOf(FloorLayer* layer, std::uint64_t frame, double reach) {
-  return [layer, frame, reach](const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples) {
-    return layer->observe(frame, sensor, samples, reach);
+  return [layer, frame, reach](const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples,
+                                const std::vector<std::uint32_t>* cells) {
+    return layer->observe(frame, sensor, samples, reach, cells);
   };
 }
 

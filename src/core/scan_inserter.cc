@@ -125,7 +125,8 @@ std::vector<Beam> ScanInserter::cloudBeams(const Eigen::Vector3d& origin, const 
   // occupied wins, once (as each of the n rays would).
   const bool summed = options_.cloud_combining == EvidenceCombining::kSum;
   FloorView ground;  // the fixed frame's z = 0 until asked
-  const auto beamTo = [&](const Eigen::Vector3d& p, std::uint64_t n) {
+  // `cell`: the keys of p's octree column (key x | key y << 16), where known.
+  const auto beamTo = [&](const Eigen::Vector3d& p, std::uint64_t n, std::optional<std::uint32_t> cell) {
     const Eigen::Vector3d v = p - origin;
     const double r = v.norm();
     if (r < 1e-6) {
@@ -133,7 +134,9 @@ std::vector<Beam> ScanInserter::cloudBeams(const Eigen::Vector3d& origin, const 
       return;
     }
     c[ReadingKind::kHit] += n;
-    const double height = p.z() - ground.heightAt(p.x(), p.y());
+    const double floor_height = cell ? ground.heightAtKeys(int(*cell & 0xffff), int(*cell >> 16), p.x(), p.y())
+                                     : ground.heightAt(p.x(), p.y());
+    const double height = p.z() - floor_height;
     const double near = std::max(0.0, r - options_.cloud_noise_near);
     const double sigma = options_.cloud_noise_base + options_.cloud_noise_quadratic * near * near;
     const bool marks = r <= max_range && height >= options_.cloud_mark_min_z &&
@@ -147,24 +150,31 @@ std::vector<Beam> ScanInserter::cloudBeams(const Eigen::Vector3d& origin, const 
       for (std::size_t i = 0; i < points.size(); i += 16) {
         if (points[i].allFinite()) samples.push_back(points[i].cast<double>());
       }
-      ground = floor(origin, samples);
+      ground = floor(origin, samples, nullptr);
     }
     beams.reserve(points.size());
     for (const Eigen::Vector3f& p : points) {
-      if (p.allFinite()) beamTo(p.cast<double>(), 1);
+      if (p.allFinite()) beamTo(p.cast<double>(), 1, std::nullopt);
       else c[nonFiniteKind(p)]++;
     }
     return beams;
   }
   const EndVoxels grouped = groupByEndVoxel(points, tree_->getResolution(), tree_->getTreeDepth(), grouping_threads_);
   c += grouped.non_finite;
+  // Each voxel's mean, and its column: the floor is kept per octree column, and the grouping
+  // already has the keys.
   std::vector<Eigen::Vector3d> means;
+  std::vector<std::uint32_t> cells;
   means.reserve(grouped.voxels.size());
-  for (const EndVoxel& g : grouped.voxels) means.push_back(g.sum / static_cast<double>(g.n));
-  if (floor) ground = floor(origin, means);
-  for (const Eigen::Vector3d& q : grouped.outside) beamTo(q, 1);  // its own beam (dropped where it leaves)
+  cells.reserve(grouped.voxels.size());
+  for (const EndVoxel& g : grouped.voxels) {
+    means.push_back(g.sum / static_cast<double>(g.n));
+    cells.push_back(static_cast<std::uint32_t>(g.key));  // key x | key y << 16
+  }
+  if (floor) ground = floor(origin, means, &cells);
+  for (const Eigen::Vector3d& q : grouped.outside) beamTo(q, 1, std::nullopt);  // its own beam (dropped where it leaves)
   beams.reserve(beams.size() + grouped.voxels.size());
-  for (std::size_t i = 0; i < means.size(); ++i) beamTo(means[i], grouped.voxels[i].n);
+  for (std::size_t i = 0; i < means.size(); ++i) beamTo(means[i], grouped.voxels[i].n, cells[i]);
   return beams;
 }
 

@@ -88,21 +88,24 @@ class FloorView {
   // found before it, else (no floor ever found) the fixed frame's z = 0.
   // (Inline: it is asked once per return.)
   double heightAt(double x, double y) const {
-    if (!tiles_.empty()) {
-      const int kx = floorKeyScaled(x, inverse_resolution_), ky = floorKeyScaled(y, inverse_resolution_);
-      const int tx = (kx >> kTileBits) - tx0_, ty = (ky >> kTileBits) - ty0_;
-      if (kx >= 0 && ky >= 0 && tx >= 0 && ty >= 0 && tx < tiles_x_ && ty < tiles_y_) {
-        if (const Tile* tile = tiles_[std::size_t(ty) * tiles_x_ + tx].get()) {
-          const float h = tile->height[indexInTile(kx, ky)];
-          if (!std::isnan(h)) return h;
-        }
+    if (tiles_.empty()) return planeHeightAt(x, y);
+    return heightAtKeys(floorKeyScaled(x, inverse_resolution_), floorKeyScaled(y, inverse_resolution_), x, y);
+  }
+  // The same for a point (x, y) known to lie in the cell of keys (kx, ky) (-1: outside the keys).
+  double heightAtKeys(int kx, int ky, double x, double y) const {
+    const int tx = (kx >> kTileBits) - tx0_, ty = (ky >> kTileBits) - ty0_;
+    if (kx >= 0 && ky >= 0 && tx >= 0 && ty >= 0 && tx < tiles_x_ && ty < tiles_y_) {
+      if (const Tile* tile = tiles_[std::size_t(ty) * tiles_x_ + tx].get()) {
+        const float h = tile->height[indexInTile(kx, ky)];
+        if (!std::isnan(h)) return h;
       }
     }
-    return plane_ ? plane_->heightAt(x, y) : 0.0;
+    return planeHeightAt(x, y);
   }
 
  private:
   friend class FloorLayer;
+  double planeHeightAt(double x, double y) const { return plane_ ? plane_->heightAt(x, y) : 0.0; }
   double inverse_resolution_ = 1.0;
   int tx0_ = 0, ty0_ = 0, tiles_x_ = 0, tiles_y_ = 0;
   std::vector<std::shared_ptr<const Tile>> tiles_;  // row-major over the rectangle; null: none known
@@ -129,10 +132,13 @@ class FloorLayer {
   // Finds frame `frame`'s floor among `samples` (map frame; its end-voxel means), seeded by the
   // floor known kLag frames before, and returns the view of the layer within `reach` (m) of the
   // sensor that its returns are measured against; the floor is folded in in the frame's turn.
+  // `cells`, when given, holds each sample's cell (key x | key y << 16; 0xffffffff: none, which
+  // keys 65535, 65535 of the map's far corner are taken for), as the
+  // octree's column it lies in (its end voxel's); otherwise each is the cell of its x and y.
   // Waits (only) until frame - kLag has been folded in. A frame already folded in (inserted
   // anew after a reset) is measured against the layer as it is now and not folded in again.
   FloorView observe(std::uint64_t frame, const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples,
-                    double reach);
+                    double reach, const std::vector<std::uint32_t>* cells = nullptr);
   // observe(take(), ...): one frame after another.
   FloorView observe(const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples, double reach) {
     return observe(take(), sensor, samples, reach);
@@ -208,8 +214,9 @@ class FloorLayer {
   static bool replaces(float before, std::uint8_t weight, double measured, const FloorOptions& options);
   static double measuredMean(float before, std::uint8_t weight, double measured, const FloorOptions& options);
   // A frame's floor measured against `known`: whether it is the floor, and the cells it speaks for.
-  Fold measure(const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples, const Known& known,
-               const FloorOptions& options, double inverse_resolution) const;
+  Fold measure(const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples,
+               const std::vector<std::uint32_t>* cells, const Known& known, const FloorOptions& options,
+               double inverse_resolution) const;
   // Folds in the frames whose turn it is (under the lock).
   void foldReady();
   void fold(const Fold& frame);

@@ -88,9 +88,11 @@ struct InsertResult {
 };
 
 // The floor a depth frame's returns are measured against, asked for with the sensor's position
-// and a sample of the frame's returns (map frame). Called once per frame, in the frames' order
-// where that matters (FloorLayer::observe).
-using FloorStage = std::function<FloorView(const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples)>;
+// and a sample of the frame's returns (map frame), with each sample's octree column (key x | key
+// y << 16) where the caller knows it (null: from the samples' x and y). Called once per frame, in
+// the frames' order where that matters (FloorLayer::observe).
+using FloorStage = std::function<FloorView(const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples,
+                                           const std::vector<std::uint32_t>* cells)>;
 
 // A cloud's per-voxel updates, worked out before they are applied (ScanInserter::prepareCloud).
 struct PreparedCloud {
