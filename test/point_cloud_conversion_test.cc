@@ -218,7 +218,8 @@ TEST(PointCloudConversion, AnOrganizedFramesFlyingPixelsAreLeftOutAndCounted) {
 
 // On a frame with many flying pixels, holes and surfaces at random, the conversion leaves out
 // exactly the pixels the core's whole-frame rule (flagFlyingPixels) flags, and keeps the rest in
-// order: rows with several flagged pixels, next to holes, at the ends of rows.
+// order: rows with several flagged pixels, next to holes, at the ends of rows, beside infinite
+// pixels (not written) and finite ones whose range overflows to infinity (written).
 TEST(PointCloudConversion, TheFilteredConversionLeavesOutExactlyWhatTheRuleFlags) {
   constexpr int kW = 41, kH = 29;
   std::mt19937 rng(11);
@@ -228,7 +229,12 @@ TEST(PointCloudConversion, TheFilteredConversionLeavesOutExactlyWhatTheRuleFlags
   for (int v = 0; v < kH; ++v) {
     for (int u = 0; u < kW; ++u) {
       const float x = unit(rng);
-      const float depth = x < 0.1f ? nan : x < 0.55f ? 1.5f + 0.01f * unit(rng) : x < 0.85f ? 3.0f : 0.5f + 4.0f * unit(rng);
+      const float depth = x < 0.1f    ? nan
+                          : x < 0.12f ? std::numeric_limits<float>::infinity()
+                          : x < 0.14f ? 1e20f
+                          : x < 0.55f ? 1.5f + 0.01f * unit(rng)
+                          : x < 0.85f ? 3.0f
+                                      : 0.5f + 4.0f * unit(rng);
       const Eigen::Vector3f ray((u - kW / 2) / 500.0f, (v - kH / 2) / 500.0f, 1.0f);
       points[std::size_t(v) * kW + u] = ray * depth;
     }

@@ -265,8 +265,13 @@ void cloudPointsInMap(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry
   rows.resize(3 * std::size_t(width));
   flags.resize(width);
   const auto slot = [&](std::uint32_t row) { return &rows[std::size_t(row % 3) * width]; };
-  // Whether a point was written: the transform's own test, on the coordinates as it reads them.
-  const auto written = [&](std::uint32_t row, std::uint32_t col) {
+  // Whether a point was written (the transform's test: its coordinates are finite), read from its
+  // range where that tells: a finite range has finite coordinates, a NaN one a NaN coordinate;
+  // only an infinite range (an infinite coordinate, or finite ones whose squares overflow) is
+  // tested on the coordinates as the transform reads them.
+  const auto written = [&](std::uint32_t row, std::uint32_t col, float range) {
+    if (std::isfinite(range)) return true;
+    if (std::isnan(range)) return false;
     const std::uint8_t* p = msg.data.data() + std::size_t(row) * msg.row_step + std::size_t(col) * msg.point_step;
     return Eigen::Vector3f(coordinate(p, fx), coordinate(p, fy), coordinate(p, fz)).allFinite();
   };
@@ -283,8 +288,9 @@ void cloudPointsInMap(const sensor_msgs::PointCloud2& msg, const Eigen::Isometry
     if (flagFlyingRow(slot(row - 2), slot(row - 1), slot(row), int(width), *flying, flags.data())) {
       Eigen::Vector3f* kept = previous_start;
       Eigen::Vector3f* read = previous_start;
+      const float* ranges = slot(row - 1);
       for (std::uint32_t col = 0; col < width; ++col) {
-        if (!written(row - 1, col)) continue;  // counted by the transform already
+        if (!written(row - 1, col, ranges[col])) continue;  // counted by the transform already
         if (flags[col]) ++flying_count;
         else *kept++ = *read;
         ++read;
