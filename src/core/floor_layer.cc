@@ -174,13 +174,22 @@ FloorLayer::Tile& FloorLayer::writableTile(int tx, int ty) {
   return *tile;
 }
 
-void FloorLayer::setCell(int kx, int ky, double measured, bool seen) {
+void FloorLayer::setCell(int kx, int ky, const BoundedPlane& plane, bool seen, LastTile* last) {
   const int i = FloorView::indexInTile(kx, ky);
-  if (!seen) {  // only where nothing is known yet
-    const auto it = tiles_.find(tileId(kx >> FloorView::kTileBits, ky >> FloorView::kTileBits));
-    if (it != tiles_.end() && !std::isnan(it->second->height[i])) return;
+  const int tx = kx >> FloorView::kTileBits, ty = ky >> FloorView::kTileBits;
+  if (last->id != tileId(tx, ty)) {
+    const auto it = tiles_.find(tileId(tx, ty));
+    last->id = tileId(tx, ty);
+    last->tile = it == tiles_.end() ? nullptr : it->second.get();
+    last->writable = last->tile && last->tile->since == folded_ + 1;
   }
-  Tile& tile = writableTile(kx >> FloorView::kTileBits, ky >> FloorView::kTileBits);
+  if (!seen && last->tile && !std::isnan(last->tile->height[i])) return;  // only where nothing is known yet
+  if (!last->writable) {
+    last->tile = &writableTile(tx, ty);
+    last->writable = true;
+  }
+  Tile& tile = *last->tile;
+  const double measured = heightAtCell(plane, kx, ky);
   const float before = tile.height[i];
   float after;
   if (!seen) {
@@ -219,17 +228,6 @@ double FloorLayer::knownHeightAt(double x, double y, std::uint64_t folded, doubl
   return std::isnan(h) ? otherwise : h;
 }
 
-// A cell's floor once a frame measured `measured` there: the running mean of the frames'
-// measurements, or the new one where none was seen (only extrapolated: weight 0) or it is
-// another surface (farther than the seed window).
-bool FloorLayer::replaces(float before, std::uint8_t weight, double measured, const FloorOptions& options) {
-  return std::isnan(before) || weight == 0 || std::abs(measured - before) > options.fit.seed_window;
-}
-
-double FloorLayer::measuredMean(float before, std::uint8_t weight, double measured, const FloorOptions& options) {
-  return replaces(before, weight, measured, options) ? measured : (before * weight + measured) / (weight + 1);
-}
-
 std::uint64_t FloorLayer::take() {
   std::lock_guard<std::mutex> lock(mutex_);
   return taken_++;
@@ -253,13 +251,38 @@ struct CellSet {
     x0 = std::min(x0, kx), x1 = std::max(x1, kx), y0 = std::min(y0, ky), y1 = std::max(y1, ky);
   }
   void allocate() { taken.assign(x1 < x0 ? 0 : std::size_t(x1 - x0 + 1) * std::size_t(y1 - y0 + 1), 0); }
-  // Whether the cell is new (and now taken).
-  bool add(int kx, int ky) {
-    std::uint8_t& t = taken[std::size_t(ky - y0) * std::size_t(x1 - x0 + 1) + std::size_t(kx - x0)];
-    if (t) return false;
-    t = 1;
-    return true;
+  // Appends the cells (key x | key y << 16; kNone: none) of `keys` at `indices` not taken yet to
+  // `out`, in order, and takes them. Without a branch on whether a cell is new: a frame's voxels
+  // come back to a column at no predictable step.
+  template <typename Indices>
+  void takeNew(const std::vector<std::uint32_t>& keys, const Indices& indices, std::vector<std::uint32_t>* out) {
+    out->resize(indices.size());
+    std::size_t n = 0;
+    for (const std::size_t i : indices) {
+      const std::uint32_t k = keys[i];
+      if (k == kNone) continue;
+      std::uint8_t& t = taken[std::size_t(int(k >> 16) - y0) * std::size_t(x1 - x0 + 1) + std::size_t(int(k & 0xffff) - x0)];
+      (*out)[n] = k;
+      n += t ^ 1;
+      t = 1;
+    }
+    out->resize(n);
   }
+  static constexpr std::uint32_t kNone = 0xffffffff;
+};
+
+// 0, 1, ..., n - 1, for takeNew over every key.
+struct Every {
+  std::size_t n;
+  struct Iterator {
+    std::size_t i;
+    std::size_t operator*() const { return i; }
+    Iterator& operator++() { return ++i, *this; }
+    bool operator!=(const Iterator& o) const { return i != o.i; }
+  };
+  Iterator begin() const { return {0}; }
+  Iterator end() const { return {n}; }
+  std::size_t size() const { return n; }
 };
 
 }  // namespace
@@ -276,7 +299,7 @@ FloorLayer::Fold FloorLayer::measure(const Eigen::Vector3d& sensor, const std::v
   if (!fit) return fold;
   fold.plane = BoundedPlane::of(*fit, options.extrapolation);
   // The cells it speaks for: where its floor returns lie, and every other column it saw.
-  constexpr std::uint32_t kNone = 0xffffffff;
+  constexpr std::uint32_t kNone = CellSet::kNone;
   const bool given = cells_given && cells_given->size() == samples.size();
   std::vector<std::uint32_t> computed;
   if (!given) {
@@ -292,12 +315,8 @@ FloorLayer::Fold FloorLayer::measure(const Eigen::Vector3d& sensor, const std::v
     if (k != kNone) cells.cover(int(k & 0xffff), int(k >> 16));
   }
   cells.allocate();
-  for (std::size_t i : fit->inliers) {
-    if (keys[i] != kNone && cells.add(int(keys[i] & 0xffff), int(keys[i] >> 16))) fold.floor_cells.push_back(keys[i]);
-  }
-  for (std::uint32_t k : keys) {
-    if (k != kNone && cells.add(int(k & 0xffff), int(k >> 16))) fold.other_cells.push_back(k);
-  }
+  cells.takeNew(keys, fit->inliers, &fold.floor_cells);
+  cells.takeNew(keys, Every{keys.size()}, &fold.other_cells);
   return fold;
 }
 
@@ -457,17 +476,12 @@ void FloorLayer::fold(const Fold& frame) {
   fallback_found_ = true;
   fallback_height_ = height;
   // One measurement per cell per frame: the plane's height at the cells its inliers lie in.
-  for (std::uint32_t c : frame.floor_cells) {
-    const int kx = int(c & 0xffff), ky = int(c >> 16);
-    setCell(kx, ky, heightAtCell(plane, kx, ky), true);
-  }
+  LastTile last;
+  for (std::uint32_t c : frame.floor_cells) setCell(int(c & 0xffff), int(c >> 16), plane, true, &last);
   // Columns the frame saw something else in (a wall, a step, a table's legs) and no floor was
   // ever seen under: the plane's height there, until a floor is seen (weight 0). Their slice
   // band then follows the floor around them, not the floor under the sensor.
-  for (std::uint32_t c : frame.other_cells) {
-    const int kx = int(c & 0xffff), ky = int(c >> 16);
-    setCell(kx, ky, heightAtCell(plane, kx, ky), false);
-  }
+  for (std::uint32_t c : frame.other_cells) setCell(int(c & 0xffff), int(c >> 16), plane, false, &last);
   last_plane_ = plane;
   status_.source = FloorSource::kFound;
   status_.height = height;

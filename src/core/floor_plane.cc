@@ -59,11 +59,15 @@ std::optional<FloorPlane> fitPlane(const Cloud::ConstPtr& cloud, const std::vect
 std::optional<FloorFit> fitFloor(const std::vector<Eigen::Vector3d>& samples, const Eigen::Vector3d& sensor,
                                  const std::optional<FloorPlane>& seed, const FloorFitOptions& options) {
   // The candidates: below the sensor, thinned evenly to max_samples.
-  std::vector<std::size_t> below;
+  // (Without a branch per sample: floor, walls and furniture alternate in a frame's samples.)
+  std::vector<std::size_t> below(samples.size());
+  std::size_t count = 0;
   const double top = sensor.z() - options.min_below_sensor;
   for (std::size_t i = 0; i < samples.size(); ++i) {
-    if (samples[i].z() <= top && samples[i].allFinite()) below.push_back(i);
+    below[count] = i;
+    count += static_cast<std::size_t>(samples[i].z() <= top) & static_cast<std::size_t>(samples[i].allFinite());
   }
+  below.resize(count);
   const std::size_t stride = std::max<std::size_t>(1, (below.size() + options.max_samples - 1) /
                                                           std::max(1, options.max_samples));
   Cloud::Ptr cloud(new Cloud);
@@ -105,15 +109,16 @@ std::optional<FloorFit> fitFloor(const std::vector<Eigen::Vector3d>& samples, co
   }
   FloorFit fit;
   fit.plane = *plane;
-  fit.min = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
-  fit.max = -fit.min;
+  Eigen::Vector2d lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
   for (std::size_t i : below) {
     if (std::abs(fit.plane.distance(samples[i])) > options.inlier_distance) continue;
     fit.inliers.push_back(i);
-    fit.min = fit.min.cwiseMin(samples[i].head<2>());
-    fit.max = fit.max.cwiseMax(samples[i].head<2>());
+    lo = lo.cwiseMin(samples[i].head<2>());
+    hi = hi.cwiseMax(samples[i].head<2>());
   }
   if (fit.inliers.empty()) return std::nullopt;
+  fit.min = lo;
+  fit.max = hi;
   return fit;
 }
 

@@ -207,12 +207,26 @@ class FloorLayer {
   const Tile* tileAsOf(std::uint32_t id, std::uint64_t folded) const;
   std::shared_ptr<const Tile> sharedTileAsOf(std::uint32_t id, std::uint64_t folded) const;
   Tile& writableTile(int tx, int ty);
-  // A floor measured in the cell (`seen`), or the frame's plane extrapolated to a cell that has none.
-  void setCell(int kx, int ky, double height, bool seen);
+  // The tile a fold wrote or looked at last: a frame's cells come in runs within a tile.
+  struct LastTile {
+    std::uint32_t id = 0xffffffff;
+    Tile* tile = nullptr;    // null: none yet
+    bool writable = false;   // the fold's own version (writableTile)
+  };
+  // The plane's floor measured in the cell (`seen`), or the plane extrapolated to a cell that
+  // has none.
+  void setCell(int kx, int ky, const BoundedPlane& plane, bool seen, LastTile* last);
   // The cell's floor at (x, y) once `folded` frames were folded in, or `otherwise` where none was known.
   double knownHeightAt(double x, double y, std::uint64_t folded, double otherwise) const;
-  static bool replaces(float before, std::uint8_t weight, double measured, const FloorOptions& options);
-  static double measuredMean(float before, std::uint8_t weight, double measured, const FloorOptions& options);
+  // A cell's floor once a frame measured `measured` there: the running mean of the frames'
+  // measurements, or the new one where none was seen (only extrapolated: weight 0) or it is
+  // another surface (farther than the seed window).
+  static bool replaces(float before, std::uint8_t weight, double measured, const FloorOptions& options) {
+    return std::isnan(before) || weight == 0 || std::abs(measured - before) > options.fit.seed_window;
+  }
+  static double measuredMean(float before, std::uint8_t weight, double measured, const FloorOptions& options) {
+    return replaces(before, weight, measured, options) ? measured : (before * weight + measured) / (weight + 1);
+  }
   // A frame's floor measured against `known`: whether it is the floor, and the cells it speaks for.
   Fold measure(const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples,
                const std::vector<std::uint32_t>* cells, const Known& known, const FloorOptions& options,
