@@ -71,8 +71,10 @@ std::size_t flagFlyingRow(const float* up, const float* mid, const float* down, 
     const __m128 r = _mm_loadu_ps(mid + u);
     const __m128 gap = _mm_add_ps(base4, _mm_mul_ps(per_metre4, r));
     const __m128 left = close(mid + u - 1, r, gap), right = close(mid + u + 1, r, gap);
+    const int settled = two_settle ? _mm_movemask_ps(_mm_and_ps(left, right)) : 0;
+    if (settled == 0xF) continue;
     const __m128 no_range = _mm_cmpunord_ps(r, r);
-    if (two_settle && _mm_movemask_ps(_mm_or_ps(_mm_and_ps(left, right), no_range)) == 0xF) continue;
+    if ((settled | _mm_movemask_ps(no_range)) == 0xF) continue;
     // The count: each close neighbour's mask is -1.
     __m128i n = _mm_add_epi32(_mm_castps_si128(left), _mm_castps_si128(right));
     for (const float* row : {up, down}) {

@@ -132,9 +132,9 @@ class FloorLayer {
   // Finds frame `frame`'s floor among `samples` (map frame; its end-voxel means), seeded by the
   // floor known kLag frames before, and returns the view of the layer within `reach` (m) of the
   // sensor that its returns are measured against; the floor is folded in in the frame's turn.
-  // `cells`, when given, holds each sample's cell (key x | key y << 16; 0xffffffff: none, which
-  // keys 65535, 65535 of the map's far corner are taken for), as the
-  // octree's column it lies in (its end voxel's); otherwise each is the cell of its x and y.
+  // `cells`, when given, holds each sample's cell, the octree column it lies in (its end voxel's):
+  // key x | key y << 16, or 0xffffffff for none (which the map's far corner cell, keys 65535 and
+  // 65535, is taken for). Otherwise each sample's cell is that of its x and y.
   // Waits (only) until frame - kLag has been folded in. A frame already folded in (inserted
   // anew after a reset) is measured against the layer as it is now and not folded in again.
   FloorView observe(std::uint64_t frame, const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples,
