@@ -2,6 +2,7 @@
 // methods, in one process.
 //
 //   bench_cloud_insertion [--frames N] [--rounds R] [--resolution M] [--ours-only] [--scene desk|room]
+//                         [--no-floor] [--no-flying-filter]
 //
 // Frames come from the simulated Kinect-class camera (sim/depth_camera.h: 640 x 480, 57 x 43 deg,
 // 0.5-4.5 m, the Kinect's depth noise) in the simulated office room, in two scenes: "desk" (the
@@ -26,7 +27,8 @@
 // Prints per scene the median ms per frame and the ratios, how our map differs from the whole
 // rays' and from the per-point one (voxels by class, the navigation slice's cells by map_server's
 // class), and a JSON line (exit status 1 if a pipelined map differs). --ours-only: only ours, 20
-// times, and the pipelined runs (for profiling).
+// times, and the pipelined runs (for profiling). --no-floor, --no-flying-filter: the floor's and the
+// flying-pixel filter's options off (floor_find, cloud_flying_pixel_filter), to see what they cost.
 #include <octomap/OcTree.h>
 #include <sensor_msgs/PointCloud2.h>
 
@@ -215,6 +217,7 @@ int main(int argc, char** argv) {
   double resolution = 0.05;
   bool ours_only = false;  // for profiling
   std::string only_scene;  // "" = both
+  bool find_floor = true, flying_filter = true;  // off: what the two cost (floor_find, cloud_flying_pixel_filter)
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "--frames" && i + 1 < argc) frames_per_scene = std::max(1, std::atoi(argv[++i]));
@@ -222,9 +225,12 @@ int main(int argc, char** argv) {
     else if (arg == "--ours-only") ours_only = true;
     else if (arg == "--scene" && i + 1 < argc) only_scene = argv[++i];
     else if (arg == "--rounds" && i + 1 < argc) rounds = std::max(1, std::atoi(argv[++i]));
+    else if (arg == "--no-floor") find_floor = false;
+    else if (arg == "--no-flying-filter") flying_filter = false;
     else {
       std::fprintf(stderr,
-                   "usage: bench_cloud_insertion [--frames N] [--rounds R] [--resolution M] [--ours-only] [--scene desk|room]\n");
+                   "usage: bench_cloud_insertion [--frames N] [--rounds R] [--resolution M] [--ours-only] [--scene desk|room] "
+                   "[--no-floor] [--no-flying-filter]\n");
       return 2;
     }
   }
@@ -256,6 +262,8 @@ int main(int argc, char** argv) {
     options.keep_scans = false;
     options.slice.min_z = 0.05;  // the navigation band: floor + margin to above the table
     options.slice.max_z = 0.80;
+    options.floor.find = find_floor;
+    options.insert.cloud_flying_pixels.enabled = flying_filter;
     osm::Mapper mapper(options);
     osm::SensorCloud cloud;
     std::vector<double> ours, conversion_ms;
