@@ -177,9 +177,10 @@ FloorLayer::Tile& FloorLayer::writableTile(int tx, int ty) {
 void FloorLayer::setCell(int kx, int ky, const BoundedPlane& plane, bool seen, LastTile* last) {
   const int i = FloorView::indexInTile(kx, ky);
   const int tx = kx >> FloorView::kTileBits, ty = ky >> FloorView::kTileBits;
-  if (last->id != tileId(tx, ty)) {
-    const auto it = tiles_.find(tileId(tx, ty));
-    last->id = tileId(tx, ty);
+  const std::uint32_t id = tileId(tx, ty);
+  if (last->id != id) {
+    const auto it = tiles_.find(id);
+    last->id = id;
     last->tile = it == tiles_.end() ? nullptr : it->second.get();
     last->writable = last->tile && last->tile->since == folded_ + 1;
   }
@@ -251,15 +252,15 @@ struct CellSet {
     x0 = std::min(x0, kx), x1 = std::max(x1, kx), y0 = std::min(y0, ky), y1 = std::max(y1, ky);
   }
   void allocate() { taken.assign(x1 < x0 ? 0 : std::size_t(x1 - x0 + 1) * std::size_t(y1 - y0 + 1), 0); }
-  // Appends the cells (key x | key y << 16; kNone: none) of `keys` at `indices` not taken yet to
-  // `out`, in order, and takes them. Without a branch on whether a cell is new: a frame's voxels
-  // come back to a column at no predictable step.
-  template <typename Indices>
-  void takeNew(const std::vector<std::uint32_t>& keys, const Indices& indices, std::vector<std::uint32_t>* out) {
-    out->resize(indices.size());
+  // Appends the cells (key x | key y << 16; kNone: none) keys[index(0)], ..., keys[index(count -
+  // 1)] not taken yet to `out`, in order, and takes them. Without a branch on whether a cell is
+  // new: a frame's voxels come back to a column at no predictable step.
+  template <typename Index>
+  void takeNew(const std::vector<std::uint32_t>& keys, std::size_t count, Index index, std::vector<std::uint32_t>* out) {
+    out->resize(count);
     std::size_t n = 0;
-    for (const std::size_t i : indices) {
-      const std::uint32_t k = keys[i];
+    for (std::size_t c = 0; c < count; ++c) {
+      const std::uint32_t k = keys[index(c)];
       if (k == kNone) continue;
       std::uint8_t& t = taken[std::size_t(int(k >> 16) - y0) * std::size_t(x1 - x0 + 1) + std::size_t(int(k & 0xffff) - x0)];
       (*out)[n] = k;
@@ -269,20 +270,6 @@ struct CellSet {
     out->resize(n);
   }
   static constexpr std::uint32_t kNone = 0xffffffff;
-};
-
-// 0, 1, ..., n - 1, for takeNew over every key.
-struct Every {
-  std::size_t n;
-  struct Iterator {
-    std::size_t i;
-    std::size_t operator*() const { return i; }
-    Iterator& operator++() { return ++i, *this; }
-    bool operator!=(const Iterator& o) const { return i != o.i; }
-  };
-  Iterator begin() const { return {0}; }
-  Iterator end() const { return {n}; }
-  std::size_t size() const { return n; }
 };
 
 }  // namespace
@@ -315,8 +302,8 @@ FloorLayer::Fold FloorLayer::measure(const Eigen::Vector3d& sensor, const std::v
     if (k != kNone) cells.cover(int(k & 0xffff), int(k >> 16));
   }
   cells.allocate();
-  cells.takeNew(keys, fit->inliers, &fold.floor_cells);
-  cells.takeNew(keys, Every{keys.size()}, &fold.other_cells);
+  cells.takeNew(keys, fit->inliers.size(), [&](std::size_t c) { return fit->inliers[c]; }, &fold.floor_cells);
+  cells.takeNew(keys, keys.size(), [](std::size_t c) { return c; }, &fold.other_cells);
   return fold;
 }
 
