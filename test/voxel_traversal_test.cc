@@ -132,6 +132,70 @@ TEST_F(VoxelTraversalTest, AxisParallelSegments) {
   EXPECT_EQ(walkOctree(p, p + Eigen::Vector3d(0.01, 0.01, 0.0), false).size(), 1u);
 }
 
+// Segments that start or end on voxel boundaries (corners, edges, faces) or barely move along an
+// axis: there crossings tie or rounding puts them on the wrong side of the end, and the walk must
+// still stay in the key box of its ends (a window over that box is all the tracer has), move one
+// voxel at a time and end on the end's voxel.
+TEST(VoxelTraversalEnds, WalksOnBoundariesStayInTheirEndsBox) {
+  octomap::OcTree tree(0.1);
+  std::mt19937 rng(3);
+  std::uniform_int_distribution<int> cell(-25, 25), pick(0, 5);
+  // Per coordinate: on a boundary, a rounding's width off it, a denormal, or anywhere.
+  const auto coordinate = [&](int c) {
+    switch (pick(rng)) {
+      case 0:
+        return c * 0.1;
+      case 1:
+        return c * 0.1 + 1e-15;
+      case 2:
+        return c * 0.1 - 1e-15;
+      case 3:
+        return c == 0 ? 2.4e-43 : std::nextafter(c * 0.1, 0.0);
+      case 4:
+        return -6.35e-16;
+      default:
+        return (c + 0.37) * 0.1;
+    }
+  };
+  const auto point = [&] { return Eigen::Vector3d(coordinate(cell(rng)), coordinate(cell(rng)), coordinate(cell(rng))); };
+  int walks = 0;
+  for (int n = 0; n < 20000; ++n) {
+    const Eigen::Vector3d a = n % 3 == 0 ? Eigen::Vector3d::Zero() : point(), b = point();
+    Eigen::Vector3d from = a, to = b;
+    if (n % 2) std::swap(from, to);
+    // The end of the tracer's input that stopped it: a return just above the sensor, off the axis by a rounding.
+    if (n == 0) to = Eigen::Vector3d(-6.35003607e-16, 2.41023336e-43, 2.00029325);
+    octomap::OcTreeKey kf, kt;
+    ASSERT_TRUE(tree.coordToKeyChecked(from.x(), from.y(), from.z(), kf));
+    ASSERT_TRUE(tree.coordToKeyChecked(to.x(), to.y(), to.z(), kt));
+    int distance = 0;
+    for (int d = 0; d < 3; ++d) distance += std::abs(int(kt[d]) - int(kf[d]));
+    std::vector<octomap::OcTreeKey> visited;
+    std::vector<double> exits;
+    traverseVoxels(tree, from, to, kf, kt, PackedKeys{}, [&](std::uint64_t p, double t_exit) {
+      visited.push_back(PackedKeys::keyOf(p));
+      exits.push_back(t_exit);
+    });
+    // Each voxel but the last is left within the segment.
+    for (std::size_t v = 0; v + 1 < exits.size(); ++v) EXPECT_LE(exits[v], 1.0 + 1e-9) << "segment " << n;
+    ASSERT_EQ(visited.size(), std::size_t(distance) + 1) << "segment " << n;
+    EXPECT_EQ(visited.front(), kf) << "segment " << n;
+    EXPECT_EQ(visited.back(), kt) << "segment " << n;
+    for (std::size_t v = 0; v < visited.size(); ++v) {
+      for (int d = 0; d < 3; ++d) {
+        EXPECT_GE(visited[v][d], std::min(kf[d], kt[d])) << "segment " << n << " voxel " << v << " axis " << d;
+        EXPECT_LE(visited[v][d], std::max(kf[d], kt[d])) << "segment " << n << " voxel " << v << " axis " << d;
+      }
+      if (v == 0) continue;
+      int moved = 0;
+      for (int d = 0; d < 3; ++d) moved += std::abs(int(visited[v][d]) - int(visited[v - 1][d]));
+      EXPECT_EQ(moved, 1) << "segment " << n << " voxel " << v;
+    }
+    walks += distance > 0;
+  }
+  EXPECT_GT(walks, 15000);
+}
+
 // The global pass walks its 2D grid in cells of travel (t is the distance travelled, in cells),
 // set up from the ray's fractional cell coordinates, and stops where its visitor says so.
 TEST(WalkPlaneTest, CellsOfTravelAndStopping) {

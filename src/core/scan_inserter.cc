@@ -227,12 +227,12 @@ KeyBox ScanInserter::prepareBeams(const Eigen::Vector3d& origin, const octomap::
       inside = coordToKeySafe(*tree_, end.x(), end.y(), end.z(), &rays_[r].far_key);
     }
     if (inside) {
-      // A ray starting at the origin visits at most its key distance + 1 voxels, and one more when
-      // rounding takes another route; a fanned ray starts between the origin and its end.
+      // A ray starting at the origin visits its key distance + 1 voxels; a fanned ray, starting
+      // between the origin and its end, no more.
       for (std::size_t r = first; r < rays_.size(); ++r) {
         box.add(rays_[r].far_key);  // only once every ray of the beam is known to be inside
         for (int d = 0; d < 3; ++d) max_visits_ += std::abs(int(rays_[r].far_key[d]) - int(origin_key[d]));
-        max_visits_ += 4;
+        max_visits_ += 1;
       }
     } else {
       rays_.resize(first);

@@ -6,6 +6,7 @@
 #include <octomap/OcTree.h>
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -140,11 +141,51 @@ struct PackedKeys {
   static constexpr Index stride(int axis) { return Index{1} << (16 * axis); }
 };
 
+namespace detail {
+// Whether walkSpace, taking `steps` = n[0] + n[1] + n[2] steps along these axes, could step an
+// axis past its end key: whether some axis' first crossing after its n[d] due ones comes no later
+// than another's last due one. The walk takes the earliest crossing, so while every extra
+// crossing comes after every due one it takes exactly the due ones. Exact arithmetic rules that
+// out but for a segment ending on a cell boundary (two crossings at its end: one due, one not);
+// rounding adds near-ties there and, on an axis the segment barely moves along, crossings that
+// coordToKey disagrees with. The margin covers the walk summing `delta` rather than multiplying.
+inline bool mayLeaveBox(const WalkAxis (&axes)[3], const int (&n)[3]) {
+  double last_due = -std::numeric_limits<double>::infinity();
+  double first_extra = std::numeric_limits<double>::infinity();
+  for (int d = 0; d < 3; ++d) {
+    if (n[d] > 0) last_due = std::max(last_due, axes[d].next + (n[d] - 1) * axes[d].delta);
+    first_extra = std::min(first_extra, n[d] > 0 ? axes[d].next + n[d] * axes[d].delta : axes[d].next);
+  }
+  return !(first_extra > last_due + 1e-9 * std::max(1.0, last_due));
+}
+
+// walkSpace for the walks mayLeaveBox flags: axis d takes exactly n[d] steps (the earliest
+// crossing among the axes with steps left, ties as walkSpace breaks them), so the walk ends on the
+// end voxel. t_exit is at most 1 (past 1, a crossing's parameter is rounding).
+template <typename Index, typename Visit>
+inline bool walkSpaceCounted(Index& p, const WalkAxis (&axes)[3], const AxisSteps<Index>& step, int (&n)[3],
+                             Visit&& visit) {
+  double t[3] = {axes[0].next, axes[1].next, axes[2].next};
+  const Index s[3] = {step.x, step.y, step.z};
+  for (;;) {
+    int a = -1;
+    for (int d = 0; d < 3; ++d) {
+      if (n[d] > 0 && (a < 0 || t[d] <= t[a])) a = d;
+    }
+    if (!keepWalking(visit, p, a < 0 ? 1.0 : std::min(t[a], 1.0))) return false;
+    if (a < 0) return true;
+    p += s[a];
+    t[a] += axes[a].delta;
+    --n[a];
+  }
+}
+}  // namespace detail
+
 // Octree voxels, in order, from the voxel of `from` (key from_key) to the voxel of `to` (to_key),
 // both included, as visit(index, t_exit) with t_exit a fraction of the segment and index the
 // voxel's in `cells` (PackedKeys, or a window with the same members). Exactly one axis advances
-// per step, so the end voxel is due after the keys' distance in steps; where rounding took
-// another route the end voxel is visited last anyway (at t_exit 1): a beam ends at its return.
+// per step, and each axis only as far as its end key: every voxel visited lies in the key box of
+// from_key and to_key (a window over that box is never left), and the last is to_key's.
 // False if visit stopped the walk (the end voxel is then not visited).
 template <typename Cells, typename Visit>
 inline bool traverseVoxels(const octomap::OcTree& tree, const Eigen::Vector3d& from, const Eigen::Vector3d& to,
@@ -153,17 +194,16 @@ inline bool traverseVoxels(const octomap::OcTree& tree, const Eigen::Vector3d& f
   using Index = typename Cells::Index;
   const double res = tree.getResolution(), never = std::numeric_limits<double>::infinity();
   WalkAxis axes[3];
-  int steps = 0;
+  int n[3];
   for (int d = 0; d < 3; ++d) {
     axes[d] = walkAxis(from[d], to[d], tree.keyToCoord(from_key[d]), res, never);
-    steps += std::abs(int(to_key[d]) - int(from_key[d]));
+    n[d] = std::abs(int(to_key[d]) - int(from_key[d]));
   }
   const auto step = AxisSteps<Index>::of(axes[0], axes[1], axes[2], cells.stride(0), cells.stride(1), cells.stride(2));
   Index p = cells.indexOf(from_key);
-  const Index end = cells.indexOf(to_key);
-  if (!walkSpace(p, axes[0], axes[1], axes[2], step, steps, visit)) return false;
-  if (p != end) return detail::keepWalking(visit, end, 1.0);
-  return true;
+  // Nearly every walk takes the fast loop; the counted one costs a few compares more per step.
+  if (detail::mayLeaveBox(axes, n)) return detail::walkSpaceCounted(p, axes, step, n, visit);
+  return walkSpace(p, axes[0], axes[1], axes[2], step, n[0] + n[1] + n[2], visit);
 }
 
 }  // namespace octo_slice_mapper
