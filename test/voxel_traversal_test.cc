@@ -157,7 +157,9 @@ TEST(VoxelTraversalEnds, WalksOnBoundariesStayInTheirEndsBox) {
         return (c + 0.37) * 0.1;
     }
   };
-  const auto point = [&] { return Eigen::Vector3d(coordinate(cell(rng)), coordinate(cell(rng)), coordinate(cell(rng))); };
+  const auto point = [&] {
+    return Eigen::Vector3d(coordinate(cell(rng)), coordinate(cell(rng)), coordinate(cell(rng)));
+  };
   int walks = 0;
   for (int n = 0; n < 20000; ++n) {
     const Eigen::Vector3d a = n % 3 == 0 ? Eigen::Vector3d::Zero() : point(), b = point();

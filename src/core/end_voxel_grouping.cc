@@ -51,56 +51,89 @@ std::size_t slotOf(std::uint64_t key, unsigned bits) {
   return static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ull) >> (64 - bits));
 }
 
-// The points of points[begin, end) summed per end voxel through a small direct-mapped table of
+// The points of a piece of a frame summed per end voxel through a small direct-mapped table of
 // the voxels met last. An organized frame's neighbouring pixels end in a few voxels, and depth
 // noise makes them alternate between two: summing runs of equal voxels instead, the end of a run
 // was a mispredicted branch at every second or third point (82 000 of a desk frame's half, most
 // of its time). A voxel's sum leaves the table when another voxel takes its slot, and at the end;
 // a voxel may leave it more than once (the merge joins them).
-// The keys of a block of points are worked out first, without branches (keyCoordinates), and
-// summed after (worked out and summed point by point, the two loops' branches and latencies
-// added up).
-void voxelSumsOf(const std::vector<Eigen::Vector3f>& points, std::size_t begin, std::size_t end, double inverse,
-                 double centre, EndVoxels* out) {
-  constexpr unsigned kSlotBits = 8;  // 256 slots, 10 KB: in the first-level cache
+class PieceSums {
+ public:
+  explicit PieceSums(EndVoxels* out) : out_(out) {
+    for (Slot& slot : slots_) slot.key = ~std::uint64_t{0}, slot.n = 0;
+  }
+  // Point p, whose three key coordinates are k[0..2].
+  __attribute__((always_inline)) void add(const Eigen::Vector3f& p, const std::int32_t* k) {
+    if ((k[0] | k[1] | k[2]) < 0) {  // no key: an organized frame's NaN pixels, or beyond the octree
+      if (!p.allFinite()) out_->non_finite[nonFiniteKind(p)]++;
+      else out_->outside.push_back(p.cast<double>());
+      return;
+    }
+    const std::uint64_t key = std::uint64_t(k[0]) | std::uint64_t(k[1]) << 16 | std::uint64_t(k[2]) << 32;
+    const double x = p.x(), y = p.y(), z = p.z();
+    Slot& slot = slots_[slotOf(key, kSlotBits)];
+    if (slot.key == key) {
+      slot.x += x, slot.y += y, slot.z += z;
+      slot.n++;
+      return;
+    }
+    if (slot.n > 0) out_->voxels.push_back({slot.key, Eigen::Vector3d(slot.x, slot.y, slot.z), slot.n});
+    slot.key = key, slot.n = 1;
+    slot.x = x, slot.y = y, slot.z = z;
+  }
+  // The sums still in the table, out.
+  void finish() {
+    for (const Slot& slot : slots_) {
+      if (slot.n > 0) out_->voxels.push_back({slot.key, Eigen::Vector3d(slot.x, slot.y, slot.z), slot.n});
+    }
+  }
+
+ private:
+  static constexpr unsigned kSlotBits = 8;  // 256 slots, 10 KB: two tables in the first-level cache
   struct Slot {
     std::uint64_t key;
     double x, y, z;  // not an Eigen vector: the compiler keeps the sums' arithmetic scalar and short
     std::uint64_t n;
   };
-  Slot slots[1u << kSlotBits];
-  for (Slot& slot : slots) slot.key = ~std::uint64_t{0}, slot.n = 0;
-  constexpr std::size_t kBlock = 512;
-  std::int32_t keys[3 * kBlock];
-  out->voxels.reserve((end - begin) / 8);  // a room frame's points leave the table about every 15th
+  Slot slots_[1u << kSlotBits];
+  EndVoxels* out_;
+};
+
+// Pieces a and b of `points` ([begin, end) each), summed into out_a and out_b exactly as one after
+// the other, but a point of each in turn: most points add to the slot the point before them added
+// to, so a piece's sums are one chain of dependent additions through memory (a store, its load, an
+// add), and two pieces' chains keep more of the core busy than one. b may be empty.
+// The keys of a block of points are worked out first, without branches (keyCoordinates), and
+// summed after (worked out and summed point by point, the two loops' branches and latencies
+// added up).
+void sumPiecePair(const std::vector<Eigen::Vector3f>& points, std::size_t begin_a, std::size_t end_a,
+                  std::size_t begin_b, std::size_t end_b, double inverse, double centre, EndVoxels* out_a,
+                  EndVoxels* out_b) {
   static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float), "points are packed x, y, z");
-  for (std::size_t block = begin; block < end; block += kBlock) {
-    const std::size_t n = std::min(kBlock, end - block);
-    const Eigen::Vector3f* p = points.data() + block;
-    keyCoordinates(p->data(), 3 * n, inverse, centre, keys);
-    for (std::size_t i = 0; i < n; ++i) {
-      const std::int32_t kx = keys[3 * i], ky = keys[3 * i + 1], kz = keys[3 * i + 2];
-      if ((kx | ky | kz) < 0) {  // no key: an organized frame's NaN pixels, or beyond the octree
-        if (!p[i].allFinite()) out->non_finite[nonFiniteKind(p[i])]++;
-        else out->outside.push_back(p[i].cast<double>());
-        continue;
-      }
-      const std::uint64_t key = std::uint64_t(kx) | std::uint64_t(ky) << 16 | std::uint64_t(kz) << 32;
-      const double x = p[i].x(), y = p[i].y(), z = p[i].z();
-      Slot& slot = slots[slotOf(key, kSlotBits)];
-      if (slot.key == key) {
-        slot.x += x, slot.y += y, slot.z += z;
-        slot.n++;
-        continue;
-      }
-      if (slot.n > 0) out->voxels.push_back({slot.key, Eigen::Vector3d(slot.x, slot.y, slot.z), slot.n});
-      slot.key = key, slot.n = 1;
-      slot.x = x, slot.y = y, slot.z = z;
+  constexpr std::size_t kBlock = 512;
+  PieceSums a(out_a), b(out_b);
+  // A room frame's points leave a table about every 15th.
+  out_a->voxels.reserve((end_a - begin_a) / 8);
+  out_b->voxels.reserve((end_b - begin_b) / 8);
+  std::int32_t keys_a[3 * kBlock], keys_b[3 * kBlock];
+  while (begin_a < end_a || begin_b < end_b) {
+    const std::size_t na = std::min(kBlock, end_a - begin_a), nb = std::min(kBlock, end_b - begin_b);
+    const Eigen::Vector3f* pa = points.data() + begin_a;
+    const Eigen::Vector3f* pb = points.data() + begin_b;
+    keyCoordinates(pa->data(), 3 * na, inverse, centre, keys_a);
+    keyCoordinates(pb->data(), 3 * nb, inverse, centre, keys_b);
+    const std::size_t both = std::min(na, nb);
+    for (std::size_t i = 0; i < both; ++i) {
+      a.add(pa[i], keys_a + 3 * i);
+      b.add(pb[i], keys_b + 3 * i);
     }
+    for (std::size_t i = both; i < na; ++i) a.add(pa[i], keys_a + 3 * i);
+    for (std::size_t i = both; i < nb; ++i) b.add(pb[i], keys_b + 3 * i);
+    begin_a += na;
+    begin_b += nb;
   }
-  for (const Slot& slot : slots) {
-    if (slot.n > 0) out->voxels.push_back({slot.key, Eigen::Vector3d(slot.x, slot.y, slot.z), slot.n});
-  }
+  a.finish();
+  b.finish();
 }
 
 }  // namespace
@@ -117,10 +150,17 @@ EndVoxels groupByEndVoxel(const std::vector<Eigen::Vector3f>& points, double res
   constexpr std::size_t kPiece = std::size_t(1) << 14;
   const std::size_t pieces = (points.size() + kPiece - 1) / kPiece;
   std::vector<EndVoxels> parts(std::max<std::size_t>(1, pieces));
-  forEachPiece(points.size(), pieces, workersFor(threads, points.size(), kPiece),
-               [&](std::size_t begin, std::size_t end, std::size_t piece) {
-                 voxelSumsOf(points, begin, end, inverse, centre, &parts[piece]);
-               });
+  const auto bound = [&](std::size_t piece) { return points.size() * piece / parts.size(); };
+  // Shared out by pairs (sumPiecePair); a piece's sums are the same whatever its partner.
+  const std::size_t pairs = (parts.size() + 1) / 2;
+  const unsigned workers = workersFor(threads, points.size(), 2 * kPiece);
+  forEachPiece(pairs, pairs, workers, [&](std::size_t, std::size_t, std::size_t pair) {
+    const std::size_t a = 2 * pair, b = a + 1;
+    const bool has_b = b < parts.size();
+    EndVoxels none;
+    sumPiecePair(points, bound(a), bound(a + 1), bound(a + 1), has_b ? bound(b + 1) : bound(a + 1), inverse, centre,
+                 &parts[a], has_b ? &parts[b] : &none);
+  });
   EndVoxels grouped;
   std::size_t sums = 0;
   for (const EndVoxels& part : parts) {
