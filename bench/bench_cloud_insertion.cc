@@ -2,7 +2,7 @@
 // methods, in one process.
 //
 //   bench_cloud_insertion [--frames N] [--rounds R] [--resolution M] [--ours-only] [--scene desk|room]
-//                         [--no-floor] [--no-flying-filter]
+//                         [--no-floor] [--no-flying-filter] [--stages N]
 //
 // Frames come from the simulated Kinect-class camera (sim/depth_camera.h: 640 x 480, 57 x 43 deg,
 // 0.5-4.5 m, the Kinect's depth noise) in the simulated office room, in two scenes: "desk" (the
@@ -29,6 +29,8 @@
 // class), and a JSON line (exit status 1 if a pipelined map differs). --ours-only: only ours, 20
 // times, and the pipelined runs (for profiling). --no-floor, --no-flying-filter: the floor's and the
 // flying-pixel filter's options off (floor_find, cloud_flying_pixel_filter), to see what they cost.
+// --stages N: instead, the least of N runs of the conversion (without and with the flying-pixel
+// filter) and of the end-voxel grouping of each scene's first frame.
 #include <octomap/OcTree.h>
 #include <sensor_msgs/PointCloud2.h>
 
@@ -47,6 +49,7 @@
 #include "octo_slice_mapper/held_out_score.h"
 #include "octo_slice_mapper/map_io.h"
 #include "octo_slice_mapper/mapper.h"
+#include "core/internal/end_voxel_grouping.h"
 #include "core/internal/memory_reuse.h"
 #include "octo_slice_mapper/sim/depth_camera.h"
 #include "ros/point_cloud_conversion.h"
@@ -209,6 +212,29 @@ std::vector<double> timeFrames(const std::vector<Frame>& frames, Insert&& insert
   return ms;
 }
 
+// --stages: the least of `runs` runs of the first stages of the scene's first frame, one thread:
+// the conversion to the map frame without and with the flying-pixel filter, and the grouping of
+// its points by end voxel (what the stages cost, without the pipeline's and the machine's noise).
+void printStages(const char* name, const Frame& f, double resolution, int runs) {
+  osm::FlyingPixelOptions off, on;
+  off.enabled = false;
+  std::vector<Eigen::Vector3f> points;
+  double plain = 1e300, filtered = 1e300, grouping = 1e300;
+  std::size_t voxels = 0;
+  const unsigned depth = octomap::OcTree(resolution).getTreeDepth();
+  for (int r = 0; r < runs; ++r) {
+    osm::ReadingCounts counts;
+    plain = std::min(plain, msOf([&] { osm::ros_adapter::cloudPointsInMap(*f.msg, f.optical_in_map.cast<float>(), &points,
+                                                                         &counts, &off); }));
+    filtered = std::min(filtered, msOf([&] { osm::ros_adapter::cloudPointsInMap(*f.msg, f.optical_in_map.cast<float>(),
+                                                                              &points, &counts, &on); }));
+    grouping = std::min(grouping, msOf([&] { voxels = osm::groupByEndVoxel(points, resolution, depth, 1).voxels.size(); }));
+  }
+  std::printf("  %-6s %8zu points %6zu end voxels: conversion %.3f ms, with the flying-pixel filter %.3f ms, "
+              "grouping %.3f ms (least of %d)\n",
+              name, points.size(), voxels, plain, filtered, grouping, runs);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -218,6 +244,7 @@ int main(int argc, char** argv) {
   bool ours_only = false;  // for profiling
   std::string only_scene;  // "" = both
   bool find_floor = true, flying_filter = true;  // off: what the two cost (floor_find, cloud_flying_pixel_filter)
+  int stage_runs = 0;  // --stages N: only the stages' least times
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "--frames" && i + 1 < argc) frames_per_scene = std::max(1, std::atoi(argv[++i]));
@@ -227,10 +254,11 @@ int main(int argc, char** argv) {
     else if (arg == "--rounds" && i + 1 < argc) rounds = std::max(1, std::atoi(argv[++i]));
     else if (arg == "--no-floor") find_floor = false;
     else if (arg == "--no-flying-filter") flying_filter = false;
+    else if (arg == "--stages" && i + 1 < argc) stage_runs = std::max(1, std::atoi(argv[++i]));
     else {
       std::fprintf(stderr,
                    "usage: bench_cloud_insertion [--frames N] [--rounds R] [--resolution M] [--ours-only] [--scene desk|room] "
-                   "[--no-floor] [--no-flying-filter]\n");
+                   "[--no-floor] [--no-flying-filter] [--stages N]\n");
       return 2;
     }
   }
@@ -246,6 +274,11 @@ int main(int argc, char** argv) {
   if (!only_scene.empty()) {
     scenes.erase(std::remove_if(scenes.begin(), scenes.end(), [&](const Scene& s) { return only_scene != s.name; }),
                  scenes.end());
+  }
+  if (stage_runs > 0) {
+    std::printf("== the first stages of each scene's first frame, one thread\n");
+    for (const Scene& sc : scenes) printStages(sc.name, sc.frames.front(), resolution, stage_runs);
+    return 0;
   }
   const int repeats = ours_only ? 20 : 1;
   std::printf("== depth frames, 640 x 480, %.2f m, %d frames per scene, %d rounds (median ms per frame; pipe/oct and "
