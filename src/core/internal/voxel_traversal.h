@@ -153,7 +153,9 @@ inline bool mayLeaveBox(const WalkAxis (&axes)[3], const int (&n)[3]) {
   double last_due = -std::numeric_limits<double>::infinity();
   double first_extra = std::numeric_limits<double>::infinity();
   for (int d = 0; d < 3; ++d) {
-    if (n[d] > 0) last_due = std::max(last_due, axes[d].next + (n[d] - 1) * axes[d].delta);
+    // (n - 1) * delta only for n > 1: delta may be infinite, and 0 * inf is NaN.
+    if (n[d] == 1) last_due = std::max(last_due, axes[d].next);
+    if (n[d] > 1) last_due = std::max(last_due, axes[d].next + (n[d] - 1) * axes[d].delta);
     first_extra = std::min(first_extra, n[d] > 0 ? axes[d].next + n[d] * axes[d].delta : axes[d].next);
   }
   return !(first_extra > last_due + 1e-9 * std::max(1.0, last_due));
