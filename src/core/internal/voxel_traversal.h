@@ -235,7 +235,7 @@ inline bool traverseVoxels(const octomap::OcTree& tree, const Eigen::Vector3d& f
   }
   const auto step = AxisSteps<Index>::of(axes[0], axes[1], axes[2], cells.stride(0), cells.stride(1), cells.stride(2));
   Index p = cells.indexOf(from_key);
-  // Nearly every walk takes the fast loop; the counted one costs a few compares more per step.
+  // A flagged walk differs from walkSpace's in its last three steps only.
   if (detail::mayLeaveBox(axes, n)) return detail::walkSpaceCounted(p, axes, step, n, visit);
   return walkSpace(p, axes[0], axes[1], axes[2], step, n[0] + n[1] + n[2], visit);
 }
