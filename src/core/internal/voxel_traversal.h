@@ -163,13 +163,13 @@ inline bool mayLeaveBox(const WalkAxis (&axes)[3], const int (&n)[3]) {
 }
 
 // walkSpace for the walks mayLeaveBox flags: axis d takes exactly n[d] steps, so the walk ends on
-// the end voxel. t_exit is at most 1 (past 1, a crossing's parameter is rounding). An axis
-// without steps never takes one. Of the others, only an axis' last due crossing can come as late
-// as an extra one (two crossings of an axis are at least 1/65 536 of the segment apart, rounding
-// far less): at most three, so the walk's first total - 3 crossings are due ones, taken as
-// walkSpace takes them (what each axis took is worked out once, after them); the last three are
-// chosen among the axes with steps left. A simulated camera placed on voxel corners sends a fifth
-// of its walks here; real data, none of a TUM sequence's.
+// the end voxel. In the last three steps t_exit is at most 1 (past 1, a crossing's parameter is
+// rounding). An axis without steps never takes one. Of the others, only an axis' last due crossing
+// can come as late as an extra one (two crossings of an axis are at least 1/65 536 of the segment
+// apart, rounding far less): at most three, so the walk's first total - 3 crossings are due ones,
+// taken as walkSpace takes them (what each axis took is worked out once, after them); the last
+// three are chosen among the axes with steps left. A simulated camera placed on voxel corners sends
+// a fifth of its walks here; real data, none of a TUM sequence's.
 template <typename Index, typename Visit>
 __attribute__((always_inline)) inline bool walkSpaceCounted(Index& p, const WalkAxis (&axes)[3],
                                                             const AxisSteps<Index>& step, const int (&n)[3],
@@ -184,7 +184,7 @@ __attribute__((always_inline)) inline bool walkSpaceCounted(Index& p, const Walk
     const bool x_before_y = tx < ty;
     const double t_xy = x_before_y ? tx : ty;
     const bool z_next = !(t_xy < tz);
-    if (!keepWalking(visit, p, std::min(z_next ? tz : t_xy, 1.0))) return false;
+    if (!keepWalking(visit, p, z_next ? tz : t_xy)) return false;
     const bool x_next = !z_next && x_before_y, y_next = !z_next && !x_before_y;
     p += z_next ? step.z : x_before_y ? step.x : step.y;
     tx = x_next ? tx + ax.delta : tx;
