@@ -159,7 +159,9 @@ std::vector<Beam> ScanInserter::cloudBeams(const Eigen::Vector3d& origin, const 
     }
     return beams;
   }
-  const EndVoxels grouped = groupByEndVoxel(points, tree_->getResolution(), tree_->getTreeDepth(), grouping_threads_);
+  const EndVoxels grouped =
+      groupByEndVoxel(points, tree_->getResolution(), tree_->getTreeDepth(), grouping_threads_,
+                      origin.cast<float>());
   c += grouped.non_finite;
   // Each voxel's mean, and its column: the floor is kept per octree column, and the grouping
   // already has the keys.
@@ -168,7 +170,7 @@ std::vector<Beam> ScanInserter::cloudBeams(const Eigen::Vector3d& origin, const 
   means.reserve(grouped.voxels.size());
   cells.reserve(grouped.voxels.size());
   for (const EndVoxel& g : grouped.voxels) {
-    means.push_back(g.sum / static_cast<double>(g.n));
+    means.push_back(meanInVoxel(g, tree_->getResolution(), tree_->getTreeDepth()));
     cells.push_back(static_cast<std::uint32_t>(g.key));  // key x | key y << 16
   }
   if (floor) ground = floor(origin, means, &cells);

@@ -183,7 +183,9 @@ Eigen::Vector3f* transformXyzIn16Bytes(const sensor_msgs::PointCloud2& msg, cons
       const int finite_lanes = _mm_movemask_ps(finite);
       if (finite_lanes == 0) {  // inside an organized frame's runs of NaN: counted four at a time
         const __m128 nan = _mm_or_ps(_mm_or_ps(_mm_cmpunord_ps(x, x), _mm_cmpunord_ps(y, y)), _mm_cmpunord_ps(z, z));
-        nans += static_cast<unsigned>(__builtin_popcount(static_cast<unsigned>(_mm_movemask_ps(nan))));
+        // (A table: without -mpopcnt, __builtin_popcount is a library call.)
+        static constexpr std::uint8_t kLanes[16] = {0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4};
+        nans += kLanes[_mm_movemask_ps(nan)];
         non_finite += 4;
         continue;
       }
