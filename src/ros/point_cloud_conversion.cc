@@ -193,17 +193,18 @@ Eigen::Vector3f* transformXyzIn16Bytes(const sensor_msgs::PointCloud2& msg, cons
         for (int k = 0; k < 4; ++k) one(p + 16 * k);
         continue;
       }
-      __m128 m[3];
-      for (int i = 0; i < 3; ++i) {
+      // Row by row, written out: as a loop over the rows GCC kept the loop and took each row's
+      // result through memory (a fifth more instructions for the whole conversion).
+      const auto row = [&](int i) {
         const __m128 yz = _mm_add_ps(_mm_mul_ps(r[i][1], y), _mm_mul_ps(r[i][2], z));
-        m[i] = _mm_add_ps(_mm_add_ps(_mm_mul_ps(r[i][0], x), yz), t[i]);
-      }
-      __m128 last = _mm_setzero_ps();
-      _MM_TRANSPOSE4_PS(m[0], m[1], m[2], last);  // back to points: x, y, z and a zero each
+        return _mm_add_ps(_mm_add_ps(_mm_mul_ps(r[i][0], x), yz), t[i]);
+      };
+      __m128 m0 = row(0), m1 = row(1), m2 = row(2), last = _mm_setzero_ps();
+      _MM_TRANSPOSE4_PS(m0, m1, m2, last);  // back to points: x, y, z and a zero each
       float* o = out->data();
-      _mm_storeu_ps(o, m[0]);  // each store's fourth float is the next point's x
-      _mm_storeu_ps(o + 3, m[1]);
-      _mm_storeu_ps(o + 6, m[2]);
+      _mm_storeu_ps(o, m0);  // each store's fourth float is the next point's x
+      _mm_storeu_ps(o + 3, m1);
+      _mm_storeu_ps(o + 6, m2);
       _mm_storel_pi(reinterpret_cast<__m64*>(o + 9), last);
       _mm_store_ss(o + 11, _mm_movehl_ps(last, last));
       out += 4;
