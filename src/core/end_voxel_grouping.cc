@@ -236,16 +236,4 @@ EndVoxels groupByEndVoxel(const std::vector<Eigen::Vector3f>& points, double res
   return grouped;
 }
 
-Eigen::Vector3d meanInVoxel(const EndVoxel& voxel, double resolution, unsigned depth) {
-  const double centre = static_cast<double>(1 << (depth - 1));
-  // A millionth of a voxel in from its faces: far beyond the rounding of a key's arithmetic.
-  const double margin = 1e-6 * resolution;
-  Eigen::Vector3d mean = voxel.sum / static_cast<double>(voxel.n);
-  for (int d = 0; d < 3; ++d) {
-    const double low = (static_cast<double>((voxel.key >> (16 * d)) & 0xffff) - centre) * resolution;
-    mean[d] = std::clamp(mean[d], low + margin, low + resolution - margin);
-  }
-  return mean;
-}
-
 }  // namespace octo_slice_mapper

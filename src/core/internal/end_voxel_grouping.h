@@ -3,6 +3,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cstdint>
 #include <vector>
 
@@ -49,7 +50,18 @@ EndVoxels groupByEndVoxel(const std::vector<Eigen::Vector3f>& points, double res
 
 // The mean of a voxel's points, inside the voxel: a millionth of a voxel in from a face it lies
 // on or, by the sums' rounding, just beyond (points on a face, as a simulated wall's, are common).
-// Its octree key is the voxel's.
-Eigen::Vector3d meanInVoxel(const EndVoxel& voxel, double resolution, unsigned depth);
+// Its octree key is the voxel's. (Inline: a frame has thousands of voxels.)
+inline Eigen::Vector3d meanInVoxel(const EndVoxel& voxel, double resolution, unsigned depth) {
+  const double centre = static_cast<double>(1 << (depth - 1));
+  // A millionth of a voxel: far beyond the rounding of a key's arithmetic.
+  const double margin = 1e-6 * resolution;
+  const double n = static_cast<double>(voxel.n);
+  Eigen::Vector3d mean;
+  for (int d = 0; d < 3; ++d) {
+    const double low = (static_cast<double>((voxel.key >> (16 * d)) & 0xffff) - centre) * resolution;
+    mean[d] = std::min(std::max(voxel.sum[d] / n, low + margin), low + (resolution - margin));
+  }
+  return mean;
+}
 
 }  // namespace octo_slice_mapper
