@@ -30,7 +30,8 @@
 // times, and the pipelined runs (for profiling). --no-floor, --no-flying-filter: the floor's and the
 // flying-pixel filter's options off (floor_find, cloud_flying_pixel_filter), to see what they cost.
 // --stages N: instead, the least of N runs of the conversion (without and with the flying-pixel
-// filter) and of the end-voxel grouping of each scene's first frame.
+// filter) and of the end-voxel grouping of each scene's first frame, and each frame's least of
+// N / 20 passes of the whole frame on one thread (conversion, preparing, applying).
 #include <octomap/OcTree.h>
 #include <sensor_msgs/PointCloud2.h>
 
@@ -235,6 +236,33 @@ void printStages(const char* name, const Frame& f, double resolution, int runs) 
               name, points.size(), voxels, plain, filtered, grouping, runs);
 }
 
+// --stages: a whole frame on one thread, as a pipeline worker takes it (conversion, preparing
+// with the grouping on one thread, applying), each frame's least of `runs` passes over the
+// scene's frames into a fresh map; the mean over the frames after the first two (the first ones
+// meet an empty map and no floor yet). Least-of-N per frame is steady to a few percent on a busy
+// machine, where single runs are not.
+void printFrames(const char* name, const std::vector<Frame>& frames, const osm::MapperOptions& options, int runs) {
+  std::vector<double> least(frames.size(), 1e300);
+  for (int r = 0; r < runs; ++r) {
+    osm::Mapper mapper(options);
+    const std::unique_ptr<osm::CloudPreparer> preparer = mapper.cloudPreparer();  // a worker's, kept
+    preparer->setGroupingThreads(1);
+    for (std::size_t k = 0; k < frames.size(); ++k) {
+      least[k] = std::min(least[k], msOf([&] {
+        osm::SensorCloud cloud;
+        convert(frames[k], options.insert.cloud_flying_pixels, &cloud);
+        osm::InsertResult result;
+        mapper.insertPrepared(preparer->prepare(cloud), preparer->mapGeneration(), &result);
+      }));
+    }
+  }
+  const std::size_t skip = frames.size() > 2 ? 2 : 0;
+  double sum = 0.0;
+  for (std::size_t k = skip; k < frames.size(); ++k) sum += least[k];
+  std::printf("  %-6s a whole frame on one thread: %.3f ms (mean of frames %zu-%zu, each the least of %d)\n", name,
+              sum / double(frames.size() - skip), skip + 1, frames.size(), runs);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -278,6 +306,16 @@ int main(int argc, char** argv) {
   if (stage_runs > 0) {
     std::printf("== the first stages of each scene's first frame, one thread\n");
     for (const Scene& sc : scenes) printStages(sc.name, sc.frames.front(), resolution, stage_runs);
+    for (const Scene& sc : scenes) {
+      osm::MapperOptions options;
+      options.resolution = resolution;
+      options.keep_scans = false;
+      options.slice.min_z = 0.05;
+      options.slice.max_z = 0.80;
+      options.floor.find = find_floor;
+      options.insert.cloud_flying_pixels.enabled = flying_filter;
+      printFrames(sc.name, sc.frames, options, std::max(1, stage_runs / 20));
+    }
     return 0;
   }
   const int repeats = ours_only ? 20 : 1;
