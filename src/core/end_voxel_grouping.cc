@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <iterator>
 
 #include "core/internal/parallel_chunks.h"
 
@@ -191,7 +190,7 @@ EndVoxels groupByEndVoxel(const std::vector<Eigen::Vector3f>& points, double res
   constexpr std::size_t kPiece = std::size_t(1) << 14;
   const std::size_t pieces = (points.size() + kPiece - 1) / kPiece;
   std::vector<EndVoxels> parts(std::max<std::size_t>(1, pieces));
-  const auto bound = [&](std::size_t piece) { return points.size() * piece / parts.size(); };
+  const auto bound = [&](std::size_t piece) { return partStart(points.size(), piece, parts.size()); };
   // Shared out by pairs (sumPiecePair); a piece's sums are the same whatever its partner.
   const std::size_t pairs = (parts.size() + 1) / 2;
   const unsigned workers = workersFor(threads, points.size(), 2 * kPiece);

@@ -19,11 +19,15 @@ inline unsigned workersFor(unsigned threads, std::size_t n, std::size_t min_chun
   return static_cast<unsigned>(std::min<std::size_t>(w, by_size));
 }
 
+// Where part `part` of [0, n) cut into `parts` equal parts begins (part == parts: n). The chunks
+// and pieces below are cut so; a caller that shares pieces out its own way cuts them the same.
+inline std::size_t partStart(std::size_t n, std::size_t part, std::size_t parts) { return n * part / parts; }
+
 // fn(begin, end, worker) for worker = 0 .. workers-1, chunk `worker` of [0, n).
 template <typename Fn>
 void forEachChunk(std::size_t n, unsigned workers, Fn&& fn) {
   workers = std::max(1u, workers);
-  const auto bound = [&](unsigned w) { return n * w / workers; };
+  const auto bound = [&](unsigned w) { return partStart(n, w, workers); };
   std::vector<std::thread> threads;
   threads.reserve(workers - 1);
   for (unsigned w = 0; w + 1 < workers; ++w) threads.emplace_back([&, w] { fn(bound(w), bound(w + 1), w); });
@@ -41,7 +45,7 @@ void forEachPiece(std::size_t n, std::size_t pieces, unsigned workers, Fn&& fn) 
   workers = static_cast<unsigned>(std::clamp<std::size_t>(workers, 1, pieces));
   std::atomic<std::size_t> next{0};
   const auto run = [&] {
-    for (std::size_t p = next++; p < pieces; p = next++) fn(n * p / pieces, n * (p + 1) / pieces, p);
+    for (std::size_t p = next++; p < pieces; p = next++) fn(partStart(n, p, pieces), partStart(n, p + 1, pieces), p);
   };
   std::vector<std::thread> threads;
   threads.reserve(workers - 1);
