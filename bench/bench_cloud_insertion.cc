@@ -229,7 +229,12 @@ void printStages(const char* name, const Frame& f, double resolution, int runs) 
                                                                          &counts, &off); }));
     filtered = std::min(filtered, msOf([&] { osm::ros_adapter::cloudPointsInMap(*f.msg, f.optical_in_map.cast<float>(),
                                                                               &points, &counts, &on); }));
-    grouping = std::min(grouping, msOf([&] { voxels = osm::groupByEndVoxel(points, resolution, depth, 1).voxels.size(); }));
+    grouping = std::min(grouping, msOf([&] {
+                          // (Offsets from the sensor, as the inserter sums them.)
+                          voxels = osm::groupByEndVoxel(points, resolution, depth, 1,
+                                                        f.optical_in_map.translation().cast<float>())
+                                       .voxels.size();
+                        }));
   }
   std::printf("  %-6s %8zu points %6zu end voxels: conversion %.3f ms, with the flying-pixel filter %.3f ms, "
               "grouping %.3f ms (least of %d)\n",
@@ -303,19 +308,17 @@ int main(int argc, char** argv) {
     scenes.erase(std::remove_if(scenes.begin(), scenes.end(), [&](const Scene& s) { return only_scene != s.name; }),
                  scenes.end());
   }
+  osm::MapperOptions options;
+  options.resolution = resolution;
+  options.keep_scans = false;
+  options.slice.min_z = 0.05;  // the navigation band: floor + margin to above the table
+  options.slice.max_z = 0.80;
+  options.floor.find = find_floor;
+  options.insert.cloud_flying_pixels.enabled = flying_filter;
   if (stage_runs > 0) {
     std::printf("== the first stages of each scene's first frame, one thread\n");
     for (const Scene& sc : scenes) printStages(sc.name, sc.frames.front(), resolution, stage_runs);
-    for (const Scene& sc : scenes) {
-      osm::MapperOptions options;
-      options.resolution = resolution;
-      options.keep_scans = false;
-      options.slice.min_z = 0.05;
-      options.slice.max_z = 0.80;
-      options.floor.find = find_floor;
-      options.insert.cloud_flying_pixels.enabled = flying_filter;
-      printFrames(sc.name, sc.frames, options, std::max(1, stage_runs / 20));
-    }
+    for (const Scene& sc : scenes) printFrames(sc.name, sc.frames, options, std::max(1, stage_runs / 20));
     return 0;
   }
   const int repeats = ours_only ? 20 : 1;
@@ -328,13 +331,6 @@ int main(int argc, char** argv) {
   bool all_same = true;  // the pipelined maps equal ours
   for (std::size_t s = 0; s < scenes.size(); ++s) {
     const std::vector<Frame>& frames = scenes[s].frames;
-    osm::MapperOptions options;
-    options.resolution = resolution;
-    options.keep_scans = false;
-    options.slice.min_z = 0.05;  // the navigation band: floor + margin to above the table
-    options.slice.max_z = 0.80;
-    options.floor.find = find_floor;
-    options.insert.cloud_flying_pixels.enabled = flying_filter;
     osm::Mapper mapper(options);
     osm::SensorCloud cloud;
     std::vector<double> ours, conversion_ms;
