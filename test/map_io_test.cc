@@ -215,6 +215,29 @@ TEST_F(MapIoTest, PngIsAValidPicture) {
   EXPECT_EQ(bytes.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
 }
 
+// The incremental map's picture: the map's own bytes where the two grids are the same, drawn
+// from its own grid where they differ in a single cell.
+TEST_F(MapIoTest, IncrementalPictureIsTheMapsOnlyWhereTheGridsAreEqual) {
+  const GridImage grid = gridImageOf(mapper_.slice());
+  GridImage changed = grid;
+  ASSERT_FALSE(changed.cells.empty());
+  changed.cells[changed.cells.size() / 2] = changed.cells[changed.cells.size() / 2] == 100 ? 0 : 100;
+  const GridImage equal = grid;  // another object with the same cells
+  std::string error, map_png, incremental_png;
+  for (const GridImage* incremental : {&equal, static_cast<const GridImage*>(&changed)}) {
+    std::vector<std::string> written;
+    ASSERT_TRUE(saveMapSet(mapper_.tree(), grid, dir_ + "/set", &written, &error, incremental)) << error;
+    ASSERT_TRUE(readFile(dir_ + "/set.png", &map_png, &error)) << error;
+    ASSERT_TRUE(readFile(dir_ + "/set_incremental.png", &incremental_png, &error)) << error;
+    EXPECT_EQ(incremental_png.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
+    if (incremental == &equal) {
+      EXPECT_EQ(incremental_png, map_png);
+    } else {
+      EXPECT_NE(incremental_png, map_png);
+    }
+  }
+}
+
 namespace {
 // A small raster of unknown cells at `origin` (0.1 m cells).
 GridImage unknownGrid(int width, int height, double origin_x, double origin_y) {

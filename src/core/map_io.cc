@@ -555,6 +555,13 @@ void stampSaveId(std::pair<std::string, std::string>* file, const std::string& i
 
 }  // namespace
 
+namespace {
+bool sameGrid(const GridImage& a, const GridImage& b) {
+  return &a == &b || (a.width == b.width && a.height == b.height && a.resolution == b.resolution &&
+                      a.origin_x == b.origin_x && a.origin_y == b.origin_y && a.cells == b.cells);
+}
+}  // namespace
+
 bool saveMapSet(const octomap::OcTree& tree, const GridImage& grid, const std::string& prefix,
                 std::vector<std::string>* written, std::string* error, const GridImage* incremental,
                 const HeightMap* heights) {
@@ -564,9 +571,17 @@ bool saveMapSet(const octomap::OcTree& tree, const GridImage& grid, const std::s
       !addPgmYaml(grid, prefix, &files, error) || !addPng(grid, prefix + ".png", &files, error)) {
     return false;
   }
+  const std::size_t picture = files.size() - 1;
   const std::string base = prefix + "_incremental";
-  if (incremental && (!addPgmYaml(*incremental, base, &files, error) || !addPng(*incremental, base + ".png", &files, error))) {
-    return false;
+  if (incremental) {
+    if (!addPgmYaml(*incremental, base, &files, error)) return false;
+    // Where no pass changed the map (a session of clouds only keeps no scans), its picture is the
+    // map's: encoded once (a large map's picture is most of a save's time).
+    if (sameGrid(*incremental, grid)) {
+      files.emplace_back(base + ".png", files[picture].second);
+    } else if (!addPng(*incremental, base + ".png", &files, error)) {
+      return false;
+    }
   }
   if (heights && !addHeightMap(*heights, prefix, &files, error)) return false;
   const std::string id = saveIdOf(files);
