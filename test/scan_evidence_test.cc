@@ -116,6 +116,21 @@ TEST(ScanEvidence, RefusesBoxesLargerThanItsLimit) {
   EXPECT_TRUE(evidence.begin(boxOf(lo, octomap::OcTreeKey(4095, 4095, 32768)), 1));
 }
 
+// What the window reports holding counts the whole huge pages it maps, however small its box.
+TEST(ScanEvidence, MemoryCountsTheWholePagesMapped) {
+  ScanEvidence evidence;
+  EXPECT_LT(evidence.memoryBytes(), std::size_t{1} << 20) << "nothing mapped yet";
+  const octomap::OcTreeKey lo(1000, 1000, 32768), hi(1010, 1010, 32768);
+  ASSERT_TRUE(evidence.begin(boxOf(lo, hi), 10));  // 16 x 16 cells: 1 KiB of words
+  const std::size_t one_page = evidence.memoryBytes();
+  EXPECT_GE(one_page, std::size_t{2} << 20);
+  EXPECT_LT(one_page, std::size_t{3} << 20);
+  // A box of 2048 x 1024 cells (8 MiB of words): four pages.
+  ASSERT_TRUE(evidence.begin(boxOf(octomap::OcTreeKey(0, 0, 32768), octomap::OcTreeKey(2047, 1023, 32768)), 10));
+  EXPECT_GE(evidence.memoryBytes(), std::size_t{8} << 20);
+  EXPECT_LT(evidence.memoryBytes(), std::size_t{9} << 20);
+}
+
 // A scan abandoned before drain() (its caller threw) leaves nothing behind for the next one.
 TEST(ScanEvidence, AnAbandonedScanLeavesNothingBehind) {
   ScanEvidence evidence;

@@ -37,6 +37,12 @@ ScanEvidence::~ScanEvidence() {
   if (cells_) munmap(cells_, windowBytes(capacity_));
 }
 
+std::size_t ScanEvidence::memoryBytes() const {
+  return (cells_ ? windowBytes(capacity_) : 0) + touched_capacity_ * sizeof(std::uint32_t) +
+         block_masks_.capacity() * sizeof(std::uint64_t) + block_listed_.capacity() +
+         blocks_in_order_.capacity() * sizeof(std::uint64_t);
+}
+
 namespace {
 unsigned bitsFor(std::size_t n) {  // the smallest b with 2^b >= n
   unsigned b = 0;

@@ -106,12 +106,10 @@ class ScanEvidence {
   void orderInTree();
   // Voxels listed since begin(): at least as many as drain() will hand on.
   std::size_t listed() const { return count_; }
-  // The window's size is virtual: of it, only pages scans reached are resident. With
-  // orderInTree's scratch (about 3 % of the window's size, once used).
-  std::size_t memoryBytes() const {
-    return (capacity_ + touched_capacity_) * sizeof(std::uint32_t) + block_masks_.capacity() * sizeof(std::uint64_t) +
-           block_listed_.capacity() + blocks_in_order_.capacity() * sizeof(std::uint64_t);
-  }
+  // The bytes mapped for the window (whole huge pages) and the rest it holds. The window's size
+  // is virtual: of it, only pages scans reached are resident. With orderInTree's scratch (about
+  // 3 % of the window's size, once used).
+  std::size_t memoryBytes() const;
 
   static std::uint32_t code(float value) {
     const float magnitude = std::fabs(value);  // also clears the sign of -0
