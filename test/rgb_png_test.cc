@@ -2,7 +2,6 @@
 
 #include <gtest/gtest.h>
 #include <png.h>
-#include <zlib.h>
 
 #include <cstring>
 #include <random>
@@ -51,27 +50,6 @@ bool decode(const std::string& bytes, Decoded* out) {
   return true;
 }
 
-// The filter type byte that starts each row of the image data (the IDAT chunks inflated).
-std::vector<int> rowFilters(const std::string& bytes, int width, int height) {
-  std::string compressed;
-  for (std::size_t at = 8; at + 12 <= bytes.size();) {
-    const auto* p = reinterpret_cast<const unsigned char*>(bytes.data() + at);
-    const std::size_t length = std::size_t(p[0]) << 24 | std::size_t(p[1]) << 16 | std::size_t(p[2]) << 8 | p[3];
-    if (bytes.compare(at + 4, 4, "IDAT") == 0) compressed += bytes.substr(at + 8, length);
-    at += 12 + length;
-  }
-  const std::size_t stride = std::size_t(width) * 3 + 1;
-  std::vector<unsigned char> raw(stride * height);
-  uLongf raw_size = raw.size();
-  if (uncompress(raw.data(), &raw_size, reinterpret_cast<const Bytef*>(compressed.data()), compressed.size()) != Z_OK ||
-      raw_size != raw.size()) {
-    return {};
-  }
-  std::vector<int> filters;
-  for (int y = 0; y < height; ++y) filters.push_back(raw[std::size_t(y) * stride]);
-  return filters;
-}
-
 std::string encoded(int width, int height, const std::vector<std::uint8_t>& rgb) {
   std::string bytes, error;
   EXPECT_TRUE(encodeRgbPng(
@@ -112,16 +90,6 @@ TEST(RgbPngTest, OnePixelPicture) {
   Decoded back;
   ASSERT_TRUE(decode(encoded(1, 1, pixel), &back));
   EXPECT_EQ(back.rgb, pixel);
-}
-
-// Each row is filtered against the one above: a map's repeated rows filter to zeros.
-TEST(RgbPngTest, EveryRowIsFilteredAgainstTheOneAbove) {
-  const int width = 20, height = 12;
-  std::vector<std::uint8_t> rgb(std::size_t(width) * height * 3);
-  for (std::size_t k = 0; k < rgb.size(); ++k) rgb[k] = static_cast<std::uint8_t>(k * 37 % 251);
-  const std::vector<int> filters = rowFilters(encoded(width, height, rgb), width, height);
-  ASSERT_EQ(filters.size(), std::size_t(height));
-  for (int y = 0; y < height; ++y) EXPECT_EQ(filters[std::size_t(y)], 2) << "row " << y << " (2: up)";
 }
 
 }  // namespace

@@ -31,10 +31,6 @@ bool encodeRgbPng(int width, int height, const std::function<void(int, std::uint
   png_set_write_fn(png, bytes, appendToString, nullptr);
   png_set_IHDR(png, info, width, height, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
                PNG_FILTER_TYPE_DEFAULT);
-  // Every row against the one above it: a map's picture draws each cell over several rows, and
-  // its rows change little from one to the next, so most filtered bytes are zero. libpng's default
-  // tries all five filters on every row: twice the time, and a larger file for a map.
-  png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_UP);
   png_write_info(png, info);
   for (int y = 0; y < height; ++y) {
     fill_row(y, row.data());
