@@ -553,13 +553,11 @@ void stampSaveId(std::pair<std::string, std::string>* file, const std::string& i
   }
 }
 
-}  // namespace
-
-namespace {
 bool sameGrid(const GridImage& a, const GridImage& b) {
   return &a == &b || (a.width == b.width && a.height == b.height && a.resolution == b.resolution &&
                       a.origin_x == b.origin_x && a.origin_y == b.origin_y && a.cells == b.cells);
 }
+
 }  // namespace
 
 bool saveMapSet(const octomap::OcTree& tree, const GridImage& grid, const std::string& prefix,
@@ -576,7 +574,7 @@ bool saveMapSet(const octomap::OcTree& tree, const GridImage& grid, const std::s
   if (incremental) {
     if (!addPgmYaml(*incremental, base, &files, error)) return false;
     // Where no pass changed the map (a session of clouds only keeps no scans), its picture is the
-    // map's: encoded once (a large map's picture is most of a save's time).
+    // map's: encoded once (the pictures take most of a save's time).
     if (sameGrid(*incremental, grid)) {
       files.emplace_back(base + ".png", files[picture].second);
     } else if (!addPng(*incremental, base + ".png", &files, error)) {
