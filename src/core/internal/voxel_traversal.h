@@ -106,19 +106,26 @@ inline bool walkPlane(int& i, int& j, const WalkAxis& x, const WalkAxis& y, int 
   return done;
 }
 
-// The same in 3D: visit(p, t_exit), p the last cell visited after it. The axis is x if t_x < t_y,
-// else y, unless t_z is not above that one: then z. Selected without a branch (as in walkPlane):
-// the branches made a tilted scan's rays 3x the cost of a level one's.
-template <typename Index, typename Visit>
-__attribute__((always_inline)) inline bool walkSpace(Index& p, const WalkAxis& x, const WalkAxis& y, const WalkAxis& z,
-                                                     const AxisSteps<Index>& step, int steps, Visit&& visit) {
-  double tx = x.next, ty = y.next, tz = z.next;
+namespace detail {
+// walkSpace's loop, with the axes' next crossings in the caller's tx, ty, tz. kVisitLast: visits
+// p and the `steps` cells after it, p the last one visited. Otherwise visits p and the steps - 1
+// cells after it and takes one more step: p (and tx, ty, tz) are then at the next cell, not
+// visited (none visited, and nothing changed, for steps <= 0).
+template <bool kVisitLast, typename Index, typename Visit>
+__attribute__((always_inline)) inline bool walkSpaceLoop(Index& p, double& tx, double& ty, double& tz,
+                                                         const WalkAxis& x, const WalkAxis& y, const WalkAxis& z,
+                                                         const AxisSteps<Index>& step, int steps, Visit&& visit) {
   for (;; --steps) {
+    if constexpr (!kVisitLast) {
+      if (steps <= 0) return true;
+    }
     const bool x_before_y = tx < ty;
     const double t_xy = x_before_y ? tx : ty;
     const bool z_next = !(t_xy < tz);
-    if (!detail::keepWalking(visit, p, z_next ? tz : t_xy)) return false;
-    if (steps <= 0) return true;
+    if (!keepWalking(visit, p, z_next ? tz : t_xy)) return false;
+    if constexpr (kVisitLast) {
+      if (steps <= 0) return true;
+    }
     const bool x_next = !z_next && x_before_y, y_next = !z_next && !x_before_y;
     const double next_tx = tx + x.delta, next_ty = ty + y.delta, next_tz = tz + z.delta;
     p += z_next ? step.z : x_before_y ? step.x : step.y;
@@ -126,6 +133,17 @@ __attribute__((always_inline)) inline bool walkSpace(Index& p, const WalkAxis& x
     ty = y_next ? next_ty : ty;
     tz = z_next ? next_tz : tz;
   }
+}
+}  // namespace detail
+
+// The same in 3D: visit(p, t_exit), p the last cell visited after it. The axis is x if t_x < t_y,
+// else y, unless t_z is not above that one: then z. Selected without a branch (as in walkPlane):
+// the branches made a tilted scan's rays 3x the cost of a level one's.
+template <typename Index, typename Visit>
+__attribute__((always_inline)) inline bool walkSpace(Index& p, const WalkAxis& x, const WalkAxis& y, const WalkAxis& z,
+                                                     const AxisSteps<Index>& step, int steps, Visit&& visit) {
+  double tx = x.next, ty = y.next, tz = z.next;
+  return detail::walkSpaceLoop<true>(p, tx, ty, tz, x, y, z, step, steps, visit);
 }
 
 // OcTree keys as walk indices, 16 bits per axis (keys are 16-bit): for walks that hand on keys.
@@ -179,18 +197,9 @@ __attribute__((always_inline)) inline bool walkSpaceCounted(Index& p, const Walk
   const WalkAxis ay = n[1] > 0 ? axes[1] : WalkAxis{axes[1].step, kNever, kNever};
   const WalkAxis az = n[2] > 0 ? axes[2] : WalkAxis{axes[2].step, kNever, kNever};
   double tx = ax.next, ty = ay.next, tz = az.next;
-  int steps = n[0] + n[1] + n[2];
-  for (; steps > 3; --steps) {  // walkSpace's loop
-    const bool x_before_y = tx < ty;
-    const double t_xy = x_before_y ? tx : ty;
-    const bool z_next = !(t_xy < tz);
-    if (!keepWalking(visit, p, z_next ? tz : t_xy)) return false;
-    const bool x_next = !z_next && x_before_y, y_next = !z_next && !x_before_y;
-    p += z_next ? step.z : x_before_y ? step.x : step.y;
-    tx = x_next ? tx + ax.delta : tx;
-    ty = y_next ? ty + ay.delta : ty;
-    tz = z_next ? tz + az.delta : tz;
-  }
+  const int total = n[0] + n[1] + n[2];
+  if (!walkSpaceLoop<false>(p, tx, ty, tz, ax, ay, az, step, total - 3, visit)) return false;
+  int steps = std::min(total, 3);
   // The crossings each axis took, from where its parameter got to (a sum of `delta`s: off by far
   // less than half a step), and so the steps it has left.
   const auto taken = [](const WalkAxis& a, double t) {
