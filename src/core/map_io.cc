@@ -573,8 +573,8 @@ bool saveMapSet(const octomap::OcTree& tree, const GridImage& grid, const std::s
   const std::string base = prefix + "_incremental";
   if (incremental) {
     if (!addPgmYaml(*incremental, base, &files, error)) return false;
-    // Where no pass changed the map (a session of clouds only keeps no scans), its picture is the
-    // map's: encoded once (the pictures take most of a save's time).
+    // Where no pass changed the map (none ran: --no-optimize, or clouds only, which keep no
+    // scans), its picture is the map's: encoded once (the pictures take most of a save's time).
     if (sameGrid(*incremental, grid)) {
       files.emplace_back(base + ".png", files[picture].second);
     } else if (!addPng(*incremental, base + ".png", &files, error)) {
