@@ -44,9 +44,10 @@ std::int32_t keyCoordinateOf(float coord, double inverse, double centre);
 // added back to the sums is what was taken off). Each addition rounds by at most half an ulp of
 // the sum, so the mean of a voxel's n points, each at most d from the reference, is within
 // n d 2^-24 of theirs (0.1 mm for 2 000 points 1 m away, a camera's closest voxels; far less
-// in practice, the roundings cancelling), however far from the map's origin they are.
+// in practice, the roundings cancelling), however far from the map's origin they are. (No
+// default: the map's origin, far from a robot's points, is the reference that loses precision.)
 EndVoxels groupByEndVoxel(const std::vector<Eigen::Vector3f>& points, double resolution, unsigned depth,
-                          unsigned threads, const Eigen::Vector3f& reference = Eigen::Vector3f::Zero());
+                          unsigned threads, const Eigen::Vector3f& reference);
 
 // The mean of a voxel's points, inside the voxel: a millionth of a voxel in from a face it lies
 // on or, by the sums' rounding, just beyond (points on a face, as a simulated wall's, are common).
