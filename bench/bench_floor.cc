@@ -13,10 +13,11 @@
 // compared in x-y, where the turn moves obstacles by at most 2 cm.
 //
 //   bench_floor [--sim-frames N] [--every K] [--no-real] [--no-sim] [--assumed-floor]
-//               [--reference-range M] [--reference-min-z M] [--json] [--pictures DIR]
+//               [--held-out] [--reference-range M] [--reference-min-z M] [--json] [--pictures DIR]
 // --assumed-floor: the rules of a map without floor finding (the floor at z = 0, no noise model,
 // no flying-pixel filter), for comparison in the same run. ms/frame: one thread, conversion,
 // flying-pixel test and insertion (its share: the last column); ref ms: OctoMap's insertion.
+// --held-out: four more frames of reference (variants()), a check that the defaults carry over.
 #include <octomap/OcTree.h>
 
 #include <cctype>
@@ -52,10 +53,27 @@ struct Variant {
   Eigen::Isometry3d world = Eigen::Isometry3d::Identity();  // the world as the map's fixed frame sees it
 };
 
+bool held_out = false;  // --held-out: the variants below too
+
+// The three frames of reference, and with --held-out four that no default was chosen on:
+// the floor above the frame's origin, far below it, turned about the other level axis and by
+// more, and a turn and a drop at once. The turns move obstacles in x-y by at most 4 cm (2.5
+// degrees at 1 m), inside the score's one cell of tolerance.
 std::vector<Variant> variants() {
-  return {{"as recorded", Eigen::Isometry3d::Identity()},
-          {"floor 1.5 m down", Eigen::Isometry3d(Eigen::Translation3d(0.0, 0.0, -1.5))},
-          {"turned 1.5 deg", Eigen::Isometry3d(Eigen::AngleAxisd(1.5 * M_PI / 180.0, Eigen::Vector3d::UnitX()))}};
+  const auto turned = [](double degrees, const Eigen::Vector3d& axis) {
+    return Eigen::Isometry3d(Eigen::AngleAxisd(degrees * M_PI / 180.0, axis));
+  };
+  const auto moved = [](double dz) { return Eigen::Isometry3d(Eigen::Translation3d(0.0, 0.0, dz)); };
+  std::vector<Variant> all = {{"as recorded", Eigen::Isometry3d::Identity()},
+                              {"floor 1.5 m down", moved(-1.5)},
+                              {"turned 1.5 deg", turned(1.5, Eigen::Vector3d::UnitX())}};
+  if (held_out) {
+    all.push_back({"floor 0.7 m up", moved(0.7)});
+    all.push_back({"floor 4 m down", moved(-4.0)});
+    all.push_back({"turned 2.5 deg (y)", turned(2.5, Eigen::Vector3d::UnitY())});
+    all.push_back({"1 deg (x, y), 1.2 m down", moved(-1.2) * turned(1.0, Eigen::Vector3d(1.0, 1.0, 0.0).normalized())});
+  }
+  return all;
 }
 
 std::string pictures;  // --pictures DIR: each variant's slice as a PNG
@@ -264,7 +282,7 @@ bool realFrames(const std::string& folder, const osm::tools::DepthIntrinsics& in
 std::string json;
 
 void report(const std::string& data, const std::string& variant, const Outcome& o, double reference_ms) {
-  std::printf("  %-22s %-18s %9.3f %7.3f %8zu %8zu %9.2f %9.2f %5llu/%-5llu %8.3f %9llu %6.2f\n", data.c_str(),
+  std::printf("  %-22s %-24s %9.3f %7.3f %8zu %8zu %9.2f %9.2f %5llu/%-5llu %8.3f %9llu %6.2f\n", data.c_str(),
               variant.c_str(), o.score.precision, o.score.recall, o.score.map_occupied, o.score.truth_observed,
               o.ms_per_frame, reference_ms, (unsigned long long)o.floor.frames_found,
               (unsigned long long)(o.floor.frames_found + o.floor.frames_without), o.floor.height,
@@ -295,16 +313,17 @@ int main(int argc, char** argv) {
     else if (arg == "--reference-min-z" && i + 1 < argc) reference_min_z = std::atof(argv[++i]);
     else if (arg == "--no-sim") simulated = false;
     else if (arg == "--json") as_json = true;
+    else if (arg == "--held-out") held_out = true;
     else if (arg == "--pictures" && i + 1 < argc) pictures = argv[++i];
     else {
       std::fprintf(stderr,
                    "usage: bench_floor [--sim-frames N] [--every K] [--no-real] [--no-sim] [--assumed-floor]\n"
-                   "                   [--reference-range M] [--reference-min-z M] [--json] [--pictures DIR]\n");
+                   "                   [--held-out] [--reference-range M] [--reference-min-z M] [--json] [--pictures DIR]\n");
       return 2;
     }
   }
   std::printf("== the navigation slice (0.05-0.80 m above the floor found), 0.05 m, one cell of tolerance\n");
-  std::printf("  %-22s %-18s %9s %7s %8s %8s %9s %9s %11s %8s %9s %6s\n", "data", "variant", "precision", "recall",
+  std::printf("  %-22s %-24s %9s %7s %8s %8s %9s %9s %11s %8s %9s %6s\n", "data", "variant", "precision", "recall",
               "occupied", "truth", "ms/frame", "ref ms", "floor found", "floor z", "flying", "ms");
   if (simulated) {
     const osm::sim::BoxScene office = osm::sim::BoxScene::officeRoom(), ramp = osm::sim::BoxScene::officeRoomWithRamp();
