@@ -337,6 +337,9 @@ int main(int argc, char** argv) {
     if (held_out) {
       const std::vector<Frame> robot = simFrames(office, sim_frames, 0.0, 7, 0.35, 0.10);
       report("sim office", "robot camera (0.35 m)", mapAndScore(robot, Eigen::Isometry3d::Identity(), truth, true, "sim robot"), 0.0);
+      report("sim office", "robot, turned 1.5 deg",
+             mapAndScore(robot, Eigen::Isometry3d(Eigen::AngleAxisd(1.5 * M_PI / 180.0, Eigen::Vector3d::UnitX())), truth, true,
+                         "sim robot turned"), 0.0);
       report("sim office", "robot, 1.5 m down",
              mapAndScore(robot, Eigen::Isometry3d(Eigen::Translation3d(0.0, 0.0, -1.5)), truth, true, "sim robot down"), 0.0);
     }

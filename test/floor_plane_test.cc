@@ -56,6 +56,25 @@ TEST(FloorPlane, TheLowestSupportedPlaneWinsOverATableTop) {
   EXPECT_NEAR(fit->plane.heightAt(3.5, 1.0), 0.0, 0.02);
 }
 
+// A low camera sees the floor, an 8 cm step across its whole view, the step's shadow and the floor
+// beyond. The step's top is not floor: a plane between the two surfaces, a little off level, would
+// hold both within a wider band (at an inlier distance of 0.04 m, 18 of these 20 frames).
+TEST(FloorPlane, ALowStepAcrossTheViewIsNotTakenForFloor) {
+  for (unsigned seed = 1; seed <= 20; ++seed) {
+    std::mt19937 rng(seed);
+    std::vector<Eigen::Vector3d> samples;
+    addPlane(&samples, 0.5, 1.45, -1.5, 1.5, 0.0, 0.0, 0.05, &rng);  // the floor up to the step
+    addPlane(&samples, 1.5, 2.5, -1.5, 1.5, 0.08, 0.0, 0.05, &rng);  // the step's top
+    addPlane(&samples, 3.1, 4.0, -1.5, 1.5, 0.0, 0.0, 0.05, &rng);   // the floor beyond its shadow
+    const std::optional<FloorFit> fit = fitFloor(samples, Eigen::Vector3d(0.0, 0.0, 0.35), std::nullopt, {});
+    ASSERT_TRUE(fit) << seed;
+    EXPECT_NEAR(fit->plane.heightAt(2.0, 0.0), 0.0, 0.02) << seed;
+    std::size_t on_step = 0;
+    for (std::size_t i : fit->inliers) on_step += samples[i].x() > 1.47 && samples[i].x() < 2.53;
+    EXPECT_EQ(on_step, 0u) << seed;
+  }
+}
+
 TEST(FloorPlane, ATiltedFloorWithinTheToleranceIsFoundAndASteeperSlopeIsNot) {
   std::mt19937 rng(3);
   FloorFitOptions options;
