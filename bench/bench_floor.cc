@@ -54,7 +54,7 @@ struct Variant {
   Eigen::Isometry3d world = Eigen::Isometry3d::Identity();  // the world as the map's fixed frame sees it
 };
 
-bool held_out = false;  // --held-out: the variants below too, and a robot's camera (main)
+bool held_out = false;  // --held-out: the variants below too, and a robot's camera (in main)
 
 // The three frames of reference, and with --held-out four that no default was chosen on:
 // the floor above the frame's origin, far below it, turned about the other level axis and by

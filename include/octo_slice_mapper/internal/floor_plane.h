@@ -15,9 +15,9 @@ struct FloorFitOptions {
   // few degrees still fit; a wall or a heap of clutter seldom does.
   double max_tilt = 0.09;
   // A return within this of the plane is on it (m). The samples are end-voxel means, which
-  // average a Kinect's noise (one return at 3 m: about 1.5 cm). A band twice this wide must not
-  // hold both the floor and a low step's top: at 0.04 a plane a degree or two off level took the
-  // floor and an 8 cm step as one surface, and the step was lost to the floor.
+  // average a Kinect's noise (one return at 3 m: about 1.5 cm). The band, twice this wide, must
+  // not hold both the floor and a low step's top: wider, a plane a degree or two off level takes
+  // the floor and an 8 cm step as one surface, and the step is lost to the floor.
   double inlier_distance = 0.03;
   // A plane needs this many of the frame's samples on it; fewer: the frame saw no floor.
   int min_points = 120;
