@@ -156,6 +156,28 @@ TEST(FloorLayer, ALowerFloorFoundLaterUndoesATableTakenForTheFloor) {
   EXPECT_TRUE(forgotten);
 }
 
+// A cell's slice band starts from the voxel layer nearest its floor, whatever the fallback's
+// layer: on a floor rising 1.3 degrees, cells whose floor lies 0.3 of a voxel up keep layer 0 while
+// the floor under the sensor (0.06 m) sets the fallback's layer to 1. (A band starting a layer
+// higher would miss the top of an 8 cm step standing on those cells.)
+TEST(FloorLayer, ACellsLevelIsTheLayerNearestItsFloor) {
+  FloorLayer layer(kResolution, {});
+  std::vector<Eigen::Vector3d> ramp;
+  for (double x = 0.025; x < 2.0; x += kResolution) {
+    for (double y = 0.025; y < 2.0; y += kResolution) ramp.emplace_back(x, y, 0.015 + 0.0225 * x);
+  }
+  layer.observe(Eigen::Vector3d(2.0, 1.0, 1.2), ramp, 10.0);
+  const FloorLayer::LevelChanges changes = layer.takeLevelChanges();
+  EXPECT_EQ(changes.fallback_level, 1);
+  std::size_t checked = 0;
+  for (const auto& [cell, level] : changes.cells) {
+    const double x = (int(cell & 0xffff) - 32768 + 0.5) * kResolution;
+    EXPECT_EQ(level, int(std::lround((0.015 + 0.0225 * x) / kResolution))) << "x " << x;
+    checked += x < 0.3;
+  }
+  EXPECT_GT(checked, 100u);  // cells at layer 0 beside a fallback at layer 1
+}
+
 TEST(FloorLayer, AViewKeepsTheFloorAsOfItsFrame) {
   FloorLayer layer(kResolution, {});
   const FloorView before = layer.observe(Eigen::Vector3d(0.0, 1.0, 1.0), floorFrame(0.0), 10.0);

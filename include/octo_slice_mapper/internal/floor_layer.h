@@ -150,7 +150,7 @@ class FloorLayer {
   // Floor levels (height / resolution, rounded: the voxel layer the floor is in) for the slice.
   // The level where no cell is known follows the floors found, by whole voxels and only when it
   // is two or more voxels off, so that noise does not move the slice's band back and forth; a
-  // cell's level is that level unless its floor is three quarters of a voxel or more off it.
+  // cell's level is the layer nearest its own floor (levelOf).
   struct LevelChanges {
     int fallback_level = 0;
     bool fallback_changed = false;
@@ -234,13 +234,13 @@ class FloorLayer {
   // Folds in the frames whose turn it is (under the lock).
   void foldReady();
   void fold(const Fold& frame);
-  // A cell's voxel layer; within three quarters of a layer of the fallback's, the fallback's: a
-  // level floor's noise and a few millimetres of tilt must not split it into shifted columns (a
-  // shifted column is read voxel by voxel).
-  int levelOf(double height) const {
-    const double x = height / resolution_;
-    return std::abs(x - fallback_level_) < 0.75 ? fallback_level_ : static_cast<int>(std::lround(x));
-  }
+  // A cell's voxel layer: the one nearest its floor, so that the cell's band starts at most half
+  // a voxel off the floor it is measured from. With more slack towards the fallback's layer, a
+  // low step where the floor lies between two layers falls below its column's band (an 8 cm
+  // step in a world turned 1 degree, at 0.05 m). A level floor's noise stays within one layer
+  // unless the floor lies near a layer boundary; its columns are then shifted, which costs reads
+  // (a shifted column is read voxel by voxel), not correctness.
+  int levelOf(double height) const { return static_cast<int>(std::lround(height / resolution_)); }
   // Every known cell's level again (the fallback's level changed).
   void relevel();
 
