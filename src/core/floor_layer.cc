@@ -59,7 +59,7 @@ void FloorLayer::restore(const std::vector<std::pair<std::uint32_t, float>>& cel
   const int level_before = fallback_level_;
   fallback_found_ = true;
   fallback_height_ = fallback_height;
-  fallback_level_ = static_cast<int>(std::lround(fallback_height / resolution_));
+  fallback_level_ = levelOf(fallback_height);
   // Level everywhere: where no cell is known, the floor stands at the fallback's height.
   FloorPlane level;
   level.d = -fallback_height;
@@ -451,13 +451,13 @@ void FloorLayer::fold(const Fold& frame) {
       }
     }
   }
-  // The level where no cell is known, first: the cells' levels are taken against it.
-  const int level = static_cast<int>(std::lround(height / resolution_));
+  // The level where no cell is known. Known cells keep theirs: a cell's level is its own floor's
+  // (levelOf), and the map shifts its columns against the new fallback itself.
+  const int level = levelOf(height);
   if (!fallback_found_ || std::abs(level - fallback_level_) >= 2) {
     if (level != fallback_level_) {
       fallback_level_ = level;
       pending_.fallback_changed = true;
-      relevel();
     }
   }
   fallback_found_ = true;

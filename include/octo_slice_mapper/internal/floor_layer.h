@@ -241,7 +241,7 @@ class FloorLayer {
   // unless the floor lies near a layer boundary; its columns are then shifted, which costs reads
   // (a shifted column is read voxel by voxel), not correctness.
   int levelOf(double height) const { return static_cast<int>(std::lround(height / resolution_)); }
-  // Every known cell's level again (the fallback's level changed).
+  // Every known cell's level, as changes (a restore, whose cells no fold set).
   void relevel();
 
   mutable std::mutex mutex_;
