@@ -75,6 +75,33 @@ TEST(FloorPlane, ALowStepAcrossTheViewIsNotTakenForFloor) {
   }
 }
 
+// A low camera sees a strip of floor and an 8 or 10 cm step whose top fills the rest of its view:
+// the step's top is the plane found first (three times the floor's samples), and the floor in
+// front of it, 8 or 10 cm below, is taken over it, with or without the floor as the seed.
+TEST(FloorPlane, AStepFillingTheViewGivesWayToTheFloorInFrontOfIt) {
+  for (const bool seeded : {false, true}) {
+    for (const double step : {0.08, 0.10}) {
+      for (unsigned seed = 1; seed <= 20; ++seed) {
+        std::mt19937 rng(seed);
+        std::vector<Eigen::Vector3d> samples;
+        addPlane(&samples, 0.5, 1.2, -1.5, 1.5, 0.0, 0.0, 0.05, &rng);    // the floor up to the step
+        const std::size_t floor_samples = samples.size();
+        addPlane(&samples, 1.25, 3.5, -1.5, 1.5, step, 0.0, 0.05, &rng);  // the step's top
+        const std::size_t step_samples = samples.size() - floor_samples;
+        const std::optional<FloorPlane> last =
+            seeded ? std::optional<FloorPlane>(FloorPlane{Eigen::Vector3d::UnitZ(), 0.0}) : std::nullopt;
+        const std::optional<FloorFit> fit = fitFloor(samples, Eigen::Vector3d(0.0, 0.0, 0.35), last, {});
+        ASSERT_TRUE(fit) << seed;
+        EXPECT_NEAR(fit->plane.heightAt(1.0, 0.0), 0.0, 0.015) << seeded << " " << step << " " << seed;
+        // (The strip's plane, followed 2 m beyond it, may graze the far edge of the step's top.)
+        std::size_t on_step = 0;
+        for (std::size_t i : fit->inliers) on_step += samples[i].x() > 1.22;
+        EXPECT_LT(on_step, step_samples / 50) << seeded << " " << step << " " << seed;
+      }
+    }
+  }
+}
+
 TEST(FloorPlane, ATiltedFloorWithinTheToleranceIsFoundAndASteeperSlopeIsNot) {
   std::mt19937 rng(3);
   FloorFitOptions options;

@@ -98,11 +98,15 @@ std::optional<FloorFit> fitFloor(const std::vector<Eigen::Vector3d>& samples, co
     plane = fitPlane(cloud, all, options);
   }
   if (!plane) return std::nullopt;
-  // The lowest supported plane: a table top or a bed found first gives way to the floor below it.
+  // The lowest supported plane: a table top, a bed or a low step found first gives way to the
+  // floor below it. The floor is looked for among the samples more than two inlier distances
+  // below the plane: a floor's own noise stays within the band, and a step whose top fills most
+  // of the view (the plane found first) stands little higher than that above the floor in front
+  // of it; the floor must show under any step that is an obstacle (cloud_mark_min_z, 0.05 m).
   for (int attempt = 0; attempt < 3; ++attempt) {
     const FloorPlane current = *plane;
     std::optional<FloorPlane> lower = fitPlane(
-        cloud, where([&](const Eigen::Vector3d& p) { return current.distance(p) < -3.0 * options.inlier_distance; }),
+        cloud, where([&](const Eigen::Vector3d& p) { return current.distance(p) < -2.0 * options.inlier_distance; }),
         options);
     if (!lower) break;
     plane = lower;
