@@ -100,9 +100,9 @@ std::optional<FloorFit> fitFloor(const std::vector<Eigen::Vector3d>& samples, co
   if (!plane) return std::nullopt;
   // The lowest supported plane: a table top, a bed or a low step found first gives way to the
   // floor below it. The floor is looked for among the samples more than two inlier distances
-  // below the plane: a floor's own noise stays within the band, and a step whose top fills most
-  // of the view (the plane found first) stands little higher than that above the floor in front
-  // of it; the floor must show under any step that is an obstacle (cloud_mark_min_z, 0.05 m).
+  // below the plane: far enough that a floor's own noise, within the band, is no second surface;
+  // near enough that the floor in front of a low step (8 cm), whose top fills most of the view
+  // and so is the plane found first, is one.
   for (int attempt = 0; attempt < 3; ++attempt) {
     const FloorPlane current = *plane;
     std::optional<FloorPlane> lower = fitPlane(
