@@ -139,6 +139,24 @@ TEST(FloorLayer, ATableTopAboveAKnownFloorIsNotTheFloor) {
   EXPECT_EQ(layer.status().source, FloorSource::kFound);
 }
 
+// Where the floor under the sensor was seen, a level surface more than cloud_mark_min_z (max_step,
+// 5 cm) above it is a step's top: a robot's camera at a wide step sees only that. Where it was only
+// followed from a plane (a hand-held camera looking ahead), max_rise (8 cm) still holds.
+TEST(FloorLayer, ALevelSurfaceAStepAboveASeenFloorIsNotTheFloor) {
+  FloorLayer layer(kResolution, {});
+  for (std::uint64_t k = 0; k < FloorLayer::kLag; ++k) layer.observe(Eigen::Vector3d(0.5, 1.0, 0.35), floorFrame(0.0), 10.0);
+  std::vector<Eigen::Vector3d> top;
+  addSurface(&top, 1.0, 3.0, 0.0, 2.0, 0.06);
+  const FloorView view = layer.observe(Eigen::Vector3d(0.5, 1.0, 0.35), top, 10.0);
+  EXPECT_EQ(layer.status().source, FloorSource::kKept);
+  EXPECT_NEAR(view.heightAt(1.5, 1.0), 0.0, 0.01);
+  // Over a cell whose floor nobody saw, the same surface is the floor (within max_rise).
+  FloorLayer ahead(kResolution, {});
+  for (std::uint64_t k = 0; k < FloorLayer::kLag; ++k) ahead.observe(Eigen::Vector3d(-2.0, 1.0, 1.2), floorFrame(0.0), 10.0);
+  ahead.observe(Eigen::Vector3d(-2.0, 1.0, 1.2), top, 10.0);
+  EXPECT_EQ(ahead.status().source, FloorSource::kFound);
+}
+
 TEST(FloorLayer, ALowerFloorFoundLaterUndoesATableTakenForTheFloor) {
   FloorLayer layer(kResolution, {});
   std::vector<Eigen::Vector3d> table;
@@ -184,12 +202,12 @@ TEST(FloorLayer, AViewKeepsTheFloorAsOfItsFrame) {
   FloorOptions options;
   options.memory_frames = 1;
   layer.setOptions(options);
-  layer.observe(Eigen::Vector3d(0.0, 1.0, 1.0), floorFrame(0.06), 10.0);  // the same cells, 6 cm up
+  layer.observe(Eigen::Vector3d(0.0, 1.0, 1.0), floorFrame(0.04), 10.0);  // the same cells, 4 cm up
   EXPECT_NEAR(before.heightAt(1.0, 1.0), 0.0, 0.01);
   FloorView after;
   for (std::uint64_t k = 0; k < FloorLayer::kLag; ++k) after = layer.observe(Eigen::Vector3d(0.0, 1.0, 1.0), {}, 10.0);
   EXPECT_NEAR(before.heightAt(1.0, 1.0), 0.0, 0.01);
-  EXPECT_NEAR(after.heightAt(1.0, 1.0), 0.03, 0.01);  // the mean of the two frames
+  EXPECT_NEAR(after.heightAt(1.0, 1.0), 0.02, 0.01);  // the mean of the two frames
 }
 
 TEST(FloorLayer, ResetForgetsEverything) {

@@ -102,6 +102,27 @@ TEST(FloorPlane, AStepFillingTheViewGivesWayToTheFloorInFrontOfIt) {
   }
 }
 
+// A robot's low camera 2 m before a wide low step sees the floor up to it and the step's top: a
+// plane tilted about 2 degrees holds the far floor and the top's near part within its band (two
+// level runs along its slope, with a jump between them), and the floor is refitted under it.
+TEST(FloorPlane, APlaneAcrossAStepsEdgeIsTwoSurfacesAndTheFloorIsTheLower) {
+  for (const double step : {0.06, 0.08}) {
+    for (unsigned seed = 1; seed <= 20; ++seed) {
+      std::mt19937 rng(seed);
+      std::vector<Eigen::Vector3d> samples;
+      addPlane(&samples, 0.7, 1.95, 0.0, 2.0, 0.0, 0.0, 0.05, &rng, 0.005);   // the floor up to the step
+      addPlane(&samples, 2.0, 3.95, 0.0, 2.0, step, 0.0, 0.05, &rng, 0.005);  // the step's top
+      const std::optional<FloorFit> fit = fitFloor(samples, Eigen::Vector3d(0.0, 1.0, 0.35), std::nullopt, {});
+      ASSERT_TRUE(fit) << step << " " << seed;
+      EXPECT_LT(fit->plane.tilt(), 0.01) << step << " " << seed;
+      EXPECT_NEAR(fit->plane.heightAt(1.5, 1.0), 0.0, 0.01) << step << " " << seed;
+      std::size_t on_step = 0;
+      for (std::size_t i : fit->inliers) on_step += samples[i].x() > 1.97;
+      EXPECT_EQ(on_step, 0u) << step << " " << seed;
+    }
+  }
+}
+
 TEST(FloorPlane, ATiltedFloorWithinTheToleranceIsFoundAndASteeperSlopeIsNot) {
   std::mt19937 rng(3);
   FloorFitOptions options;

@@ -220,13 +220,16 @@ void FloorLayer::relevel() {
   }
 }
 
-double FloorLayer::knownHeightAt(double x, double y, std::uint64_t folded, double otherwise) const {
+double FloorLayer::highestFloorAt(double x, double y, std::uint64_t folded, double otherwise,
+                                  const FloorOptions& options) const {
   const int kx = floorKeyScaled(x, inverse_resolution_), ky = floorKeyScaled(y, inverse_resolution_);
-  if (kx < 0 || ky < 0) return otherwise;
-  const Tile* tile = tileAsOf(tileId(kx >> FloorView::kTileBits, ky >> FloorView::kTileBits), folded);
-  if (!tile) return otherwise;
-  const float h = tile->height[FloorView::indexInTile(kx, ky)];
-  return std::isnan(h) ? otherwise : h;
+  const Tile* tile =
+      kx < 0 || ky < 0 ? nullptr : tileAsOf(tileId(kx >> FloorView::kTileBits, ky >> FloorView::kTileBits), folded);
+  const int i = FloorView::indexInTile(kx, ky);
+  if (!tile || std::isnan(tile->height[i])) return otherwise + options.max_rise;
+  // A floor only followed from a plane (weight 0) is known no better than that plane, which a fit
+  // a few degrees off level puts centimetres off at the sensor: there max_rise holds.
+  return tile->height[i] + (tile->weight[i] > 0 ? std::min(options.max_rise, options.max_step) : options.max_rise);
 }
 
 std::uint64_t FloorLayer::take() {
@@ -332,9 +335,11 @@ FloorView FloorLayer::observe(std::uint64_t frame, const Eigen::Vector3d& sensor
 
   lock.lock();
   if (measured.plane && known.fallback_found && known.last_plane) {
-    // Once a floor is known, a level surface well above it is not the floor (FloorOptions::max_rise).
-    const double before = knownHeightAt(sensor.x(), sensor.y(), folded, known.last_plane->heightAt(sensor.x(), sensor.y()));
-    if (measured.plane->heightAt(sensor.x(), sensor.y()) > before + options.max_rise) {
+    // Once a floor is known, a level surface well above it is not the floor (FloorOptions::max_rise,
+    // max_step).
+    const double highest =
+        highestFloorAt(sensor.x(), sensor.y(), folded, known.last_plane->heightAt(sensor.x(), sensor.y()), options);
+    if (measured.plane->heightAt(sensor.x(), sensor.y()) > highest) {
       measured.plane.reset();
       measured.floor_cells.clear();
       measured.other_cells.clear();
@@ -422,8 +427,9 @@ void FloorLayer::fold(const Fold& frame) {
   if (found && fallback_found_ && last_plane_) {
     // The table rule again, against the layer now: frames folded in since it was measured may
     // have found the floor.
-    const double known = knownHeightAt(sensor.x(), sensor.y(), ~std::uint64_t{0}, last_plane_->heightAt(sensor.x(), sensor.y()));
-    if (found->heightAt(sensor.x(), sensor.y()) > known + options_.max_rise) found.reset();
+    const double highest = highestFloorAt(sensor.x(), sensor.y(), ~std::uint64_t{0},
+                                          last_plane_->heightAt(sensor.x(), sensor.y()), options_);
+    if (found->heightAt(sensor.x(), sensor.y()) > highest) found.reset();
   }
   if (!found) {
     status_.source = fallback_found_ ? FloorSource::kKept : FloorSource::kAssumed;

@@ -54,6 +54,53 @@ std::optional<FloorPlane> fitPlane(const Cloud::ConstPtr& cloud, const std::vect
   return plane;
 }
 
+// A plane tilted across a low step's edge can hold the floor on one side and the step's top on
+// the other within its band. Along its slope, such a plane's inliers are two level runs with a
+// jump between them, where a tilted floor's rise steadily. The height of the lower run when two
+// level runs more than `min_jump` apart fit `points` (the plane's inliers) better than the plane
+// does (both models have three parameters: two heights and where the jump is, or a plane). The
+// jump is looked for between strips `strip` wide across the slope (a sort of the points cost a
+// tenth of the frame's floor finding).
+std::optional<double> lowerOfTwoLevels(const std::vector<Eigen::Vector3d>& points, const FloorPlane& plane,
+                                       double min_jump, double strip) {
+  const Eigen::Vector2d uphill(-plane.normal.x(), -plane.normal.y());
+  if (uphill.norm() < 1e-9 || points.size() < 20) return std::nullopt;
+  const Eigen::Vector2d along = uphill.normalized();
+  double first = std::numeric_limits<double>::infinity(), last = -first;
+  for (const Eigen::Vector3d& p : points) {
+    const double s = along.dot(p.head<2>());
+    first = std::min(first, s), last = std::max(last, s);
+  }
+  struct Sums {
+    double n = 0.0, z = 0.0, zz = 0.0;
+  };
+  const std::size_t strips = std::min<std::size_t>(4096, static_cast<std::size_t>((last - first) / strip) + 1);
+  std::vector<Sums> by_strip(strips);
+  double plane_sse = 0.0;
+  Sums all;
+  for (const Eigen::Vector3d& p : points) {
+    const auto k = std::min(strips - 1, static_cast<std::size_t>((along.dot(p.head<2>()) - first) / strip));
+    Sums& b = by_strip[k];
+    b.n += 1.0, b.z += p.z(), b.zz += p.z() * p.z();
+    plane_sse += plane.distance(p) * plane.distance(p);
+  }
+  for (const Sums& b : by_strip) all.n += b.n, all.z += b.z, all.zz += b.zz;
+  // Each run holds a tenth of the points at least: a few outliers at an end are no surface.
+  const double least = 0.1 * all.n;
+  double best = plane_sse;
+  std::optional<double> low;
+  Sums below;
+  for (std::size_t k = 0; k + 1 < strips; ++k) {
+    below.n += by_strip[k].n, below.z += by_strip[k].z, below.zz += by_strip[k].zz;
+    const double n2 = all.n - below.n;
+    if (below.n < least || n2 < least) continue;
+    const double m1 = below.z / below.n, m2 = (all.z - below.z) / n2;
+    const double sse = (below.zz - below.z * m1) + ((all.zz - below.zz) - (all.z - below.z) * m2);  // about each run's mean
+    if (m2 - m1 > min_jump && sse < best) best = sse, low = m1;
+  }
+  return low;
+}
+
 }  // namespace
 
 std::optional<FloorFit> fitFloor(const std::vector<Eigen::Vector3d>& samples, const Eigen::Vector3d& sensor,
@@ -110,6 +157,22 @@ std::optional<FloorFit> fitFloor(const std::vector<Eigen::Vector3d>& samples, co
         options);
     if (!lower) break;
     plane = lower;
+  }
+  // One surface or two: a plane that holds the floor and a step's top is refitted to the floor,
+  // the lower of the two (the step's top is then no inlier, and its cells are measured as what
+  // stands on the floor).
+  std::vector<Eigen::Vector3d> on_plane;
+  for (int k = 0; k < static_cast<int>(cloud->size()); ++k) {
+    if (std::abs(plane->distance(pointOf(k))) <= options.inlier_distance) on_plane.push_back(pointOf(k));
+  }
+  if (const std::optional<double> low =
+          lowerOfTwoLevels(on_plane, *plane, options.inlier_distance, options.inlier_distance)) {
+    const double level = *low;
+    if (std::optional<FloorPlane> floor = fitPlane(
+            cloud, where([&](const Eigen::Vector3d& p) { return std::abs(p.z() - level) <= options.inlier_distance; }),
+            options)) {
+      plane = floor;
+    }
   }
   FloorFit fit;
   fit.plane = *plane;

@@ -23,13 +23,14 @@ Mapper::Mapper(const MapperOptions& options) : options_(options), store_(options
     throw std::invalid_argument("mapper: need 0 < clamp_min < 0.5 < clamp_max < 1");
   }
   followInsertion(&options_);
-  floor_ = std::make_unique<FloorLayer>(options.resolution, options.floor);
+  floor_ = std::make_unique<FloorLayer>(options_.resolution, options_.floor);
   adopt(std::make_unique<octomap::OcTree>(options.resolution));
 }
 
 void Mapper::followInsertion(MapperOptions* options) {
   options->optimizer.no_return_range = options->insert.model.no_return_clear_distance;
   options->optimizer.readings = options->insert.readings;
+  options->floor.max_step = options->insert.cloud_mark_min_z;  // a surface that would mark is no floor
 }
 
 void Mapper::adopt(std::unique_ptr<octomap::OcTree> tree) {

@@ -33,6 +33,10 @@ struct FloorOptions {
   // (a box, a seat, a table: a robot's floor does not step up by more than a ramp climbs
   // between two frames); a lower one always is (what was known may have been a table).
   double max_rise = 0.08;
+  // Where the floor under the sensor was seen (not only followed from a plane), a level surface
+  // more than this above it is a step's top, not the floor: a robot's low camera at a step sees
+  // nothing else. Mapper sets it to cloud_mark_min_z: a surface that would mark is no floor.
+  double max_step = 0.05;
   // Where a frame saw no floor, its plane is followed this far (m) beyond the floor it saw
   // (BoundedPlane).
   double extrapolation = 0.5;
@@ -216,8 +220,10 @@ class FloorLayer {
   // The plane's floor measured in the cell (`seen`), or the plane extrapolated to a cell that
   // has none.
   void setCell(int kx, int ky, const BoundedPlane& plane, bool seen, LastTile* last);
-  // The cell's floor at (x, y) once `folded` frames were folded in, or `otherwise` where none was known.
-  double knownHeightAt(double x, double y, std::uint64_t folded, double otherwise) const;
+  // The highest a level plane may stand at (x, y) and be the floor, once `folded` frames were
+  // folded in: the cell's floor (`otherwise` where none is known) and max_rise above it, or
+  // max_step where the cell's floor was seen.
+  double highestFloorAt(double x, double y, std::uint64_t folded, double otherwise, const FloorOptions& options) const;
   // A cell's floor once a frame measured `measured` there: the running mean of the frames'
   // measurements, or the new one where none was seen (only extrapolated: weight 0) or it is
   // another surface (farther than the seed window).
