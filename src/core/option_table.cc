@@ -73,7 +73,9 @@ const std::vector<OptionSpec<MapperOptions>>& mapperOptionTable() {
        [](O& o) -> OptionField { return &o.floor.fit.min_points; }},
       {"floor_min_below_sensor", "m", "the floor lies at least this far below the sensor",
        [](O& o) -> OptionField { return &o.floor.fit.min_below_sensor; }},
-      {"floor_max_rise", "m", "once a floor is known, a level surface more than this above it is not the floor",
+      {"floor_max_rise", "m",
+       "once a floor is known, a level surface more than this above it is not the floor (where the floor under "
+       "the sensor was seen: more than cloud_mark_min_z)",
        [](O& o) -> OptionField { return &o.floor.max_rise; }},
       {"slice_min_z", "m", "lower end of the height band (above the floor) projected into the slice",
        [](O& o) -> OptionField { return &o.slice.min_z; }, true},
