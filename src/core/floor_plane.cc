@@ -56,11 +56,11 @@ std::optional<FloorPlane> fitPlane(const Cloud::ConstPtr& cloud, const std::vect
 
 // A plane tilted across a low step's edge can hold the floor on one side and the step's top on
 // the other within its band. Along its slope, such a plane's inliers are two level runs with a
-// jump between them, where a tilted floor's rise steadily. The height of the lower run when two
-// level runs more than `min_jump` apart fit `points` (the plane's inliers) better than the plane
-// does (both models have three parameters: two heights and where the jump is, or a plane). The
-// jump is looked for between strips `strip` wide across the slope (a sort of the points cost a
-// tenth of the frame's floor finding).
+// jump between them, where a tilted floor's inliers rise steadily. The height of the lower run
+// when two level runs more than `min_jump` apart fit `points` (the plane's inliers) better than
+// the plane does (both models have three parameters: two heights and where the jump is, or a
+// plane). The jump is looked for between strips `strip` wide across the slope, summed in one
+// pass: every frame asks, and sorting its inliers would cost more than the rest of this.
 std::optional<double> lowerOfTwoLevels(const std::vector<Eigen::Vector3d>& points, const FloorPlane& plane,
                                        double min_jump, double strip) {
   const Eigen::Vector2d uphill(-plane.normal.x(), -plane.normal.y());
