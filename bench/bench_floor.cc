@@ -247,26 +247,37 @@ osm::GridImage simTruth(const osm::sim::BoxScene& scene) {
   return grid;
 }
 
+// The simulated camera's frames of `scene` from each optical pose in turn, with flying pixels at
+// that share of the depth edges, their noise drawn from one generator seeded with `seed`.
+std::vector<Frame> framesAt(const osm::sim::BoxScene& scene, const std::vector<Eigen::Isometry3d>& poses,
+                            double flying, unsigned seed) {
+  osm::sim::DepthCameraSpec spec;
+  spec.flying_pixel_probability = flying;
+  std::mt19937 rng(seed);
+  std::vector<Frame> frames;
+  for (const Eigen::Isometry3d& pose : poses) {
+    Frame f;
+    f.optical_in_world = pose;
+    f.organized = osm::sim::depthFrame(scene, f.optical_in_world, spec, &rng);
+    f.width = spec.width, f.height = spec.height;
+    frames.push_back(std::move(f));
+  }
+  return frames;
+}
+
 // A camera `height` over the floor under it, pitched `pitch` rad down, on a loop between the
 // table and the shelf, looking out. At 1.0 m and 0.45 rad (a hand-held camera) it sees the floor,
 // the table's top and the step; at a robot's 0.35 m and 0.10 rad it sees the floor at a graze,
 // far returns noisy, and the table from the side.
 std::vector<Frame> simFrames(const osm::sim::BoxScene& scene, int count, double flying, unsigned seed,
                              double height = 1.0, double pitch = 0.45) {
-  osm::sim::DepthCameraSpec spec;
-  spec.flying_pixel_probability = flying;
-  std::mt19937 rng(seed);
-  std::vector<Frame> frames;
+  std::vector<Eigen::Isometry3d> poses;
   for (int k = 0; k < count; ++k) {
     const double a = 2.0 * M_PI * k / count;
     const double x = 3.0 + 1.9 * std::cos(a), y = 3.2 + 0.5 * std::sin(a);
-    Frame f;
-    f.optical_in_world = osm::sim::opticalPose(Eigen::Vector3d(x, y, scene.floorAt(x) + height), a + 0.9, pitch);
-    f.organized = osm::sim::depthFrame(scene, f.optical_in_world, spec, &rng);
-    f.width = spec.width, f.height = spec.height;
-    frames.push_back(std::move(f));
+    poses.push_back(osm::sim::opticalPose(Eigen::Vector3d(x, y, scene.floorAt(x) + height), a + 0.9, pitch));
   }
-  return frames;
+  return framesAt(scene, poses, flying, seed);
 }
 
 // The office with a platform 8 cm high over its far end (x from 4.2 m, the whole width) in place
@@ -280,18 +291,12 @@ osm::sim::BoxScene officeWithPlatform() {
 }
 
 std::vector<Frame> robotToPlatform(const osm::sim::BoxScene& scene, int count, unsigned seed) {
-  osm::sim::DepthCameraSpec spec;
-  std::mt19937 rng(seed);
-  std::vector<Frame> frames;
+  std::vector<Eigen::Isometry3d> poses;
   for (int k = 0; k < count; ++k) {
     const double x = 1.0 + 2.9 * k / std::max(1, count - 1);
-    Frame f;
-    f.optical_in_world = osm::sim::opticalPose(Eigen::Vector3d(x, 3.2, 0.35), 0.0, 0.10);
-    f.organized = osm::sim::depthFrame(scene, f.optical_in_world, spec, &rng);
-    f.width = spec.width, f.height = spec.height;
-    frames.push_back(std::move(f));
+    poses.push_back(osm::sim::opticalPose(Eigen::Vector3d(x, 3.2, 0.35), 0.0, 0.10));
   }
-  return frames;
+  return framesAt(scene, poses, 0.0, seed);
 }
 
 bool realFrames(const std::string& folder, const osm::tools::DepthIntrinsics& intrinsics, int every,
