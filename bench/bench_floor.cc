@@ -105,8 +105,10 @@ struct Outcome {
 // Our navigation slice of `frames` seen through `world`, scored against `truth`.
 bool assumed_floor = false;  // --assumed-floor: the rules without floor finding (z = 0, fixed band, no noise model)
 
+// `ground_below` > 0: each frame's ground point (SensorCloud::ground, a robot's base_footprint) lies
+// that far below the camera in the world.
 Outcome mapAndScore(const std::vector<Frame>& frames, const Eigen::Isometry3d& world, const osm::GridImage& truth,
-                    bool filter_flying, const std::string& picture = "") {
+                    bool filter_flying, const std::string& picture = "", double ground_below = 0.0) {
   osm::MapperOptions options;
   options.keep_scans = false;
   if (assumed_floor) {
@@ -129,6 +131,9 @@ Outcome mapAndScore(const std::vector<Frame>& frames, const Eigen::Isometry3d& w
     flying_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
     osm::SensorCloud cloud;
     cloud.origin = pose.translation();
+    if (ground_below > 0.0) {
+      cloud.ground = world * (f.optical_in_world.translation() - Eigen::Vector3d(0.0, 0.0, ground_below));
+    }
     cloud.points.reserve(f.organized.size());
     for (std::size_t i = 0; i < f.organized.size(); ++i) {
       if (f.organized[i].allFinite() && (drop.empty() || !drop[i])) cloud.points.push_back(to_map * f.organized[i]);
@@ -214,9 +219,9 @@ osm::GridImage octomapReference(const std::vector<Frame>& frames, double lo, dou
   return grid;
 }
 
-// The simulator's truth: columns holding a solid 0.05-0.80 m above the floor under them, and the
-// room's walls (the cells either side of its boundary).
-osm::GridImage simTruth(const osm::sim::BoxScene& scene) {
+// The simulator's truth: columns holding a solid 0.05-0.80 m above the floor under them (the
+// scene's floorAt, or `floor_at`), and the room's walls (the cells either side of its boundary).
+osm::GridImage simTruth(const osm::sim::BoxScene& scene, const std::function<double(double)>& floor_at = {}) {
   osm::GridImage grid;
   grid.resolution = 0.05;
   grid.origin_x = scene.room.min.x() - 0.5, grid.origin_y = scene.room.min.y() - 0.5;
@@ -226,7 +231,7 @@ osm::GridImage simTruth(const osm::sim::BoxScene& scene) {
   for (int j = 0; j < grid.height; ++j) {
     for (int i = 0; i < grid.width; ++i) {
       const double x0 = grid.origin_x + i * 0.05, y0 = grid.origin_y + j * 0.05, x1 = x0 + 0.05, y1 = y0 + 0.05;
-      const double floor = scene.floorAt(0.5 * (x0 + x1));
+      const double floor = floor_at ? floor_at(0.5 * (x0 + x1)) : scene.floorAt(0.5 * (x0 + x1));
       bool occupied = false;
       for (const osm::sim::Box& b : scene.solids) {
         if (b.max.x() > x0 && b.min.x() < x1 && b.max.y() > y0 && b.min.y() < y1 && b.max.z() > floor + 0.05 &&
@@ -338,6 +343,31 @@ void report(const std::string& data, const std::string& variant, const Outcome& 
   json += line;
 }
 
+// The office with its floor 1 m lower beyond x = 4.2 m, the whole width, and 4 m longer (a hall
+// below a gallery, a loading dock): the room's bottom at z = -1 and a slab up to z = 0 under the
+// office. The step is not in it.
+constexpr double kEdgeX = 4.2;
+osm::sim::BoxScene officeAtAnEdge() {
+  osm::sim::BoxScene scene = osm::sim::BoxScene::officeRoom();
+  scene.solids.pop_back();  // the step
+  scene.room.min.z() = -1.0;
+  scene.room.max.x() = 10.0;
+  scene.solids.push_back({Eigen::Vector3d(0.0, 0.0, -1.0), Eigen::Vector3d(kEdgeX, 5.0, 0.0)});
+  return scene;
+}
+double floorAtTheEdge(double x) { return x < kEdgeX ? 0.0 : -1.0; }
+
+// The robot's camera driving along y = 2.6 m from x = 0.6 to 3.8 m towards the edge, past the
+// table: in its last frames the floor below fills most of the view.
+std::vector<Frame> robotToTheEdge(const osm::sim::BoxScene& scene, int count, unsigned seed) {
+  std::vector<Eigen::Isometry3d> poses;
+  for (int k = 0; k < count; ++k) {
+    const double x = 0.6 + 3.2 * k / std::max(1, count - 1);
+    poses.push_back(osm::sim::opticalPose(Eigen::Vector3d(x, 2.6, 0.35), 0.0, 0.10));
+  }
+  return framesAt(scene, poses, 0.0, seed);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -381,6 +411,23 @@ int main(int argc, char** argv) {
       report("sim office", "robot up to a platform",
              mapAndScore(robotToPlatform(platform, sim_frames, 7), Eigen::Isometry3d::Identity(), simTruth(platform), true,
                          "sim robot platform"),
+             0.0);
+      // The same with the robot's base_footprint as each frame's ground point (floor_base_frame).
+      for (const Variant& v : issueVariants()) {
+        report("sim office", "robot, " + v.name + ", base",
+               mapAndScore(robot, v.world, truth, true, "sim robot base " + v.name, 0.35), 0.0);
+      }
+      report("sim office", "robot up to a platform, base",
+             mapAndScore(robotToPlatform(platform, sim_frames, 7), Eigen::Isometry3d::Identity(), simTruth(platform), true,
+                         "sim robot platform base", 0.35),
+             0.0);
+      const osm::sim::BoxScene edge = officeAtAnEdge();
+      const std::vector<Frame> to_edge = robotToTheEdge(edge, sim_frames, 7);
+      report("sim office", "robot up to an edge",
+             mapAndScore(to_edge, Eigen::Isometry3d::Identity(), simTruth(edge, floorAtTheEdge), true, "sim robot edge"), 0.0);
+      report("sim office", "robot up to an edge, base",
+             mapAndScore(to_edge, Eigen::Isometry3d::Identity(), simTruth(edge, floorAtTheEdge), true,
+                         "sim robot edge base", 0.35),
              0.0);
     }
     report("sim office", "ramp", mapAndScore(simFrames(ramp, sim_frames, 0.0, 7), Eigen::Isometry3d::Identity(),

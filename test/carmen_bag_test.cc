@@ -172,10 +172,26 @@ TEST(BagClouds, CloudsComeThroughTheBagsTfInOrderWithTheScans) {
     EXPECT_TRUE(clouds[k].points[0].isApprox(Eigen::Vector3f(2.0f * k, 1.1f, 0.3f), 1e-5f));
     EXPECT_EQ(clouds[k].left_out[ReadingKind::kNaN], 1u) << "and counted, for the cloud's readings";
   }
+  for (const SensorCloud& c : clouds) EXPECT_FALSE(c.ground) << "no floor_base_frame: no ground point";
   // The clouds alone; and a bag without the topic is an error.
   order.clear();
   ASSERT_TRUE(tools::readBag(path, {{}, {"/camera/points"}}, "odom", handlers, &skipped, &error)) << error;
   EXPECT_EQ(std::string(order.begin(), order.end()), "ccccccc");
+  // With a floor_base_frame, each cloud's ground point is that frame's origin at its stamp; one
+  // tf cannot place is counted, and its cloud is still read.
+  clouds.clear();
+  ASSERT_TRUE(tools::readBag(path, {{}, {"/camera/points"}}, "odom", handlers, &skipped, &error, {}, "base_link"));
+  ASSERT_EQ(clouds.size(), 7u);
+  for (int k = 0; k < 5; ++k) {
+    ASSERT_TRUE(clouds[std::size_t(k)].ground);
+    EXPECT_TRUE(clouds[std::size_t(k)].ground->isApprox(Eigen::Vector3d(2.0 * k, 0.0, 0.0), 1e-6));
+  }
+  skipped.clear();
+  clouds.clear();
+  ASSERT_TRUE(tools::readBag(path, {{}, {"/camera/points"}}, "odom", handlers, &skipped, &error, {}, "no_such_frame"));
+  EXPECT_EQ(clouds.size(), 7u);
+  EXPECT_EQ(skipped["cloud_no_ground"], 7u);
+  for (const SensorCloud& c : clouds) EXPECT_FALSE(c.ground);
   EXPECT_FALSE(tools::readBag(path, {{}, {"/no/such/topic"}}, "odom", handlers, &skipped, &error));
   EXPECT_NE(error.find("no messages on topic '/no/such/topic'"), std::string::npos) << error;
   std::system(("rm -rf " + dir).c_str());

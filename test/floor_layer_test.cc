@@ -157,6 +157,42 @@ TEST(FloorLayer, ALevelSurfaceAStepAboveASeenFloorIsNotTheFloor) {
   EXPECT_EQ(ahead.status().source, FloorSource::kFound);
 }
 
+// With the robot's ground point, the floor under it is the one it stands on: at a stairwell's edge
+// the landing below does not replace it (without the point it does: the frame's lowest plane wins),
+// and a platform it climbed is its floor although a step above the floor seen before.
+TEST(FloorLayer, WithAGroundPointTheFloorUnderARobotIsTheOneItStandsOn) {
+  std::vector<Eigen::Vector3d> edge = floorFrame(0.0, 0.0, 1.5);
+  addSurface(&edge, 1.5, 4.0, 0.0, 2.0, -1.0);
+  const Eigen::Vector3d sensor(0.5, 1.0, 0.35), ground(0.5, 1.0, 0.0);
+  for (const bool grounded : {true, false}) {
+    FloorLayer layer(kResolution, {});
+    const std::optional<Eigen::Vector3d> point = grounded ? std::optional<Eigen::Vector3d>(ground) : std::nullopt;
+    for (std::uint64_t k = 0; k < FloorLayer::kLag + 4; ++k) layer.observe(sensor, floorFrame(0.0), 10.0, point);
+    FloorView view;
+    for (int k = 0; k < 3; ++k) view = layer.observe(sensor, edge, 10.0, point);
+    const FloorView later = layer.observe(sensor, floorFrame(0.0), 10.0, point);
+    if (grounded) {
+      EXPECT_EQ(layer.status().source, FloorSource::kFound);
+      EXPECT_NEAR(view.heightAt(0.5, 1.0), 0.0, 0.01);
+      EXPECT_NEAR(later.heightAt(0.5, 1.0), 0.0, 0.01);
+      EXPECT_NEAR(layer.status().height, 0.0, 0.01);
+    } else {
+      EXPECT_NEAR(view.heightAt(0.5, 1.0), -1.0, 0.02);  // the limit the ground point removes
+    }
+  }
+  // Up onto a 6 cm platform: its top is the floor under the robot once the robot stands on it.
+  FloorLayer climbed(kResolution, {});
+  for (std::uint64_t k = 0; k < FloorLayer::kLag; ++k) climbed.observe(sensor, floorFrame(0.0), 10.0, ground);
+  std::vector<Eigen::Vector3d> top;
+  addSurface(&top, 0.0, 3.0, 0.0, 2.0, 0.06);
+  const Eigen::Vector3d on_top(0.5, 1.0, 0.06);
+  for (std::uint64_t k = 0; k < FloorLayer::kLag + 1; ++k) {
+    climbed.observe(sensor + Eigen::Vector3d(0.0, 0.0, 0.06), top, 10.0, on_top);
+  }
+  EXPECT_EQ(climbed.status().source, FloorSource::kFound);
+  EXPECT_NEAR(climbed.status().height, 0.06, 0.01);
+}
+
 TEST(FloorLayer, ALowerFloorFoundLaterUndoesATableTakenForTheFloor) {
   FloorLayer layer(kResolution, {});
   std::vector<Eigen::Vector3d> table;

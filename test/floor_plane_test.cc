@@ -123,6 +123,38 @@ TEST(FloorPlane, APlaneAcrossAStepsEdgeIsTwoSurfacesAndTheFloorIsTheLower) {
   }
 }
 
+// A robot's ground point (its base_footprint) names the floor it stands on: at a stairwell's edge
+// the landing below, which holds more of the view and is the lowest plane, is not it; on a floor
+// under a table top that fills most of the view, the floor still is; and a frame that shows only
+// the landing has no floor.
+TEST(FloorPlane, AGroundPointKeepsTheFloorTheRobotStandsOn) {
+  std::mt19937 rng(11);
+  std::vector<Eigen::Vector3d> edge;
+  addPlane(&edge, 0.0, 1.5, 0.0, 2.0, 0.0, 0.0, 0.05, &rng);
+  addPlane(&edge, 1.55, 4.0, 0.0, 2.0, -1.0, 0.0, 0.05, &rng);
+  const Eigen::Vector3d sensor(0.0, 1.0, 0.35), ground(0.0, 1.0, 0.0);
+  const std::optional<FloorFit> free_fit = fitFloor(edge, sensor, std::nullopt, {});
+  ASSERT_TRUE(free_fit);
+  EXPECT_NEAR(free_fit->plane.heightAt(0.0, 1.0), -1.0, 0.02);  // the lowest plane, without the ground
+  for (const std::optional<FloorPlane>& seed : {std::optional<FloorPlane>(), std::optional<FloorPlane>(free_fit->plane)}) {
+    const std::optional<FloorFit> fit = fitFloor(edge, sensor, seed, {}, ground, 0.05);
+    ASSERT_TRUE(fit);
+    EXPECT_NEAR(fit->plane.heightAt(0.0, 1.0), 0.0, 0.02);
+    EXPECT_NEAR(fit->plane.heightAt(3.0, 1.0), 0.0, 0.03);
+  }
+  std::vector<Eigen::Vector3d> table;
+  addPlane(&table, 0.5, 3.0, 0.0, 3.0, 0.72, 0.0, 0.05, &rng);
+  addPlane(&table, 0.0, 0.45, 0.0, 3.0, 0.0, 0.0, 0.05, &rng);
+  const std::optional<FloorFit> under = fitFloor(table, Eigen::Vector3d(-0.5, 1.5, 1.2), std::nullopt, {},
+                                                 Eigen::Vector3d(-0.5, 1.5, 0.0), 0.05);
+  ASSERT_TRUE(under);
+  EXPECT_NEAR(under->plane.heightAt(0.2, 1.5), 0.0, 0.02);
+  std::vector<Eigen::Vector3d> landing;
+  addPlane(&landing, 1.55, 4.0, 0.0, 2.0, -1.0, 0.0, 0.05, &rng);
+  EXPECT_FALSE(fitFloor(landing, sensor, std::nullopt, {}, ground, 0.05));
+  EXPECT_TRUE(fitFloor(landing, sensor, std::nullopt, {}));
+}
+
 TEST(FloorPlane, ATiltedFloorWithinTheToleranceIsFoundAndASteeperSlopeIsNot) {
   std::mt19937 rng(3);
   FloorFitOptions options;

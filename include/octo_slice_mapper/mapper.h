@@ -192,9 +192,11 @@ class Mapper {
   InsertResult record(InsertResult result, bool cloud, std::optional<std::uint64_t> floor_frame = std::nullopt);
   // How far from the sensor a frame's view of the floor reaches: as far as a return may mark.
   double floorReach() const;
-  // A cloud's points prepared and applied, its floor frame `floor_frame` (or the next).
+  // A cloud's points prepared and applied, its floor frame `floor_frame` (or the next), its floor
+  // through `ground` when given (SensorCloud::ground).
   InsertResult insertCloud(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points,
-                           std::optional<std::uint64_t> floor_frame, const ReadingCounts& left_out);
+                           std::optional<std::uint64_t> floor_frame, const ReadingCounts& left_out,
+                           const std::optional<Eigen::Vector3d>& ground);
   // The slice follows the floor layer's new levels as of frame `frame`'s fold (none: all so far):
   // shifted columns, or a band moved whole.
   void followFloor(std::optional<std::uint64_t> frame = std::nullopt);

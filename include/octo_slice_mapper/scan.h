@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <optional>
 #include <vector>
 
 #include "octo_slice_mapper/internal/flying_pixels.h"
@@ -78,6 +79,10 @@ inline ReadingKind nonFiniteKind(const Eigen::Vector3f& p) {
 // A 3D sensor's points in the map frame, with the sensor origin they were seen from.
 struct SensorCloud {
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  // A point on the floor the sensor's carrier stands on (a robot's base_footprint), in the map
+  // frame: the frame's floor is then the one through it (FloorLayer::observe). Empty for a
+  // hand-held camera, whose floor is found from the points alone.
+  std::optional<Eigen::Vector3d> ground;
   std::vector<Eigen::Vector3f> points;  // may hold non-finite points too: the core counts them
   // Points the conversion left out because a coordinate was NaN or infinite, counted per reason
   // (kNaN, kInfinite): an organized frame is 40 % NaN, and each such point cost the grouping
@@ -90,6 +95,7 @@ struct SensorCloud {
 // is 1-2.5 ms that the node's scan thread no longer spends.
 struct DeferredCloud {
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  std::optional<Eigen::Vector3d> ground;  // as SensorCloud's
   // Fills in the points (map frame) and the count of those left out; an organized frame's
   // flying pixels are left out by `flying`'s rule (flying_pixels.h).
   std::function<void(std::vector<Eigen::Vector3f>*, ReadingCounts*, const FlyingPixelOptions& flying)> points;
@@ -97,6 +103,7 @@ struct DeferredCloud {
   SensorCloud made(const FlyingPixelOptions& flying) const {
     SensorCloud cloud;
     cloud.origin = origin;
+    cloud.ground = ground;
     points(&cloud.points, &cloud.left_out, flying);
     return cloud;
   }

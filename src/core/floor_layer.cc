@@ -279,15 +279,18 @@ struct CellSet {
 
 FloorLayer::Fold FloorLayer::measure(const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples,
                                      const std::vector<std::uint32_t>* cells_given, const Known& known,
-                                     const FloorOptions& options, double inverse_resolution) const {
+                                     const FloorOptions& options, double inverse_resolution,
+                                     const std::optional<Eigen::Vector3d>& ground) const {
   Fold fold;
   fold.observed = true;
   fold.sensor = sensor;
   if (!options.find) return fold;
-  const std::optional<FloorFit> fit = fitFloor(
-      samples, sensor, known.last_plane ? std::optional<FloorPlane>(known.last_plane->plane) : std::nullopt, options.fit);
+  const std::optional<FloorFit> fit =
+      fitFloor(samples, sensor, known.last_plane ? std::optional<FloorPlane>(known.last_plane->plane) : std::nullopt,
+               options.fit, ground, options.max_step);
   if (!fit) return fold;
   fold.plane = BoundedPlane::of(*fit, options.extrapolation);
+  fold.grounded = ground.has_value();
   // The cells it speaks for: where its floor returns lie, and every other column it saw.
   constexpr std::uint32_t kNone = CellSet::kNone;
   const bool given = cells_given && cells_given->size() == samples.size();
@@ -312,7 +315,8 @@ FloorLayer::Fold FloorLayer::measure(const Eigen::Vector3d& sensor, const std::v
 
 FloorView FloorLayer::observe(std::uint64_t frame, const Eigen::Vector3d& sensor,
                               const std::vector<Eigen::Vector3d>& samples, double reach,
-                              const std::vector<std::uint32_t>* cells) {
+                              const std::vector<std::uint32_t>* cells,
+                              const std::optional<Eigen::Vector3d>& ground) {
   std::unique_lock<std::mutex> lock(mutex_);
   const bool fresh = frame >= folded_ && !waiting_.count(frame);
   std::uint64_t folded = folded_;
@@ -331,10 +335,10 @@ FloorView FloorLayer::observe(std::uint64_t frame, const Eigen::Vector3d& sensor
   const double inverse_resolution = inverse_resolution_;
   lock.unlock();
 
-  Fold measured = measure(sensor, samples, cells, known, options, inverse_resolution);
+  Fold measured = measure(sensor, samples, cells, known, options, inverse_resolution, ground);
 
   lock.lock();
-  if (measured.plane && known.fallback_found && known.last_plane) {
+  if (measured.plane && !measured.grounded && known.fallback_found && known.last_plane) {
     // Once a floor is known, a level surface well above it is not the floor (FloorOptions::max_rise,
     // max_step).
     const double highest =
@@ -350,7 +354,7 @@ FloorView FloorLayer::observe(std::uint64_t frame, const Eigen::Vector3d& sensor
   view.plane_ = measured.plane ? measured.plane : known.last_plane;  // this frame's, or the last one found
   // A floor found well below the one known (what was taken for the floor was a table): the
   // cells known are not this frame's floor.
-  const bool lower = measured.plane && known.fallback_found &&
+  const bool lower = measured.plane && !measured.grounded && known.fallback_found &&
                      measured.plane->heightAt(sensor.x(), sensor.y()) < known.fallback_height - options.fit.seed_window;
   // The rectangle even where nothing is known: the frame's own measurements go into it below.
   if (reach > 0.0) {
@@ -424,7 +428,7 @@ void FloorLayer::fold(const Fold& frame) {
   if (!frame.observed) return;
   const Eigen::Vector3d& sensor = frame.sensor;
   std::optional<BoundedPlane> found = frame.plane;
-  if (found && fallback_found_ && last_plane_) {
+  if (found && !frame.grounded && fallback_found_ && last_plane_) {
     // The table rule again, against the layer now: frames folded in since it was measured may
     // have found the floor.
     const double highest = highestFloorAt(sensor.x(), sensor.y(), ~std::uint64_t{0},
@@ -439,8 +443,9 @@ void FloorLayer::fold(const Fold& frame) {
   }
   const BoundedPlane& plane = *found;
   const double height = plane.heightAt(sensor.x(), sensor.y());
-  // A floor found well below the one known: what was taken for the floor was a table or a bed.
-  if (fallback_found_ && height < fallback_height_ - options_.fit.seed_window) {
+  // A floor found well below the one known: what was taken for the floor was a table or a bed
+  // (never so for a plane through the carrier's ground point: the known floor is another level).
+  if (!frame.grounded && fallback_found_ && height < fallback_height_ - options_.fit.seed_window) {
     std::vector<std::uint32_t> ids;
     for (const auto& entry : tiles_) ids.push_back(entry.first);
     for (std::uint32_t id : ids) {

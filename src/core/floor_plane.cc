@@ -104,7 +104,8 @@ std::optional<double> lowerOfTwoLevels(const std::vector<Eigen::Vector3d>& point
 }  // namespace
 
 std::optional<FloorFit> fitFloor(const std::vector<Eigen::Vector3d>& samples, const Eigen::Vector3d& sensor,
-                                 const std::optional<FloorPlane>& seed, const FloorFitOptions& options) {
+                                 const std::optional<FloorPlane>& seed, const FloorFitOptions& options,
+                                 const std::optional<Eigen::Vector3d>& ground, double ground_tolerance) {
   // The candidates: below the sensor, thinned evenly to max_samples.
   // (Without a branch per sample: floor, walls and furniture alternate in a frame's samples.)
   std::vector<std::size_t> below(samples.size());
@@ -134,6 +135,10 @@ std::optional<FloorFit> fitFloor(const std::vector<Eigen::Vector3d>& samples, co
     return indices;
   };
 
+  // Whether a plane passes through the ground point (any plane does without one).
+  const auto onGround = [&](const std::optional<FloorPlane>& p) {
+    return p && (!ground || std::abs(p->heightAt(ground->x(), ground->y()) - ground->z()) <= ground_tolerance);
+  };
   std::optional<FloorPlane> plane;
   if (seed) {
     plane = fitPlane(cloud, where([&](const Eigen::Vector3d& p) { return std::abs(seed->distance(p)) <= options.seed_window; }),
@@ -143,6 +148,12 @@ std::optional<FloorFit> fitFloor(const std::vector<Eigen::Vector3d>& samples, co
     std::vector<int> all(cloud->size());
     for (std::size_t k = 0; k < all.size(); ++k) all[k] = static_cast<int>(k);
     plane = fitPlane(cloud, all, options);
+  }
+  if (ground && !onGround(plane)) {
+    // The samples near the ground's level: the floor the carrier stands on, if the frame sees it.
+    plane = fitPlane(cloud, where([&](const Eigen::Vector3d& p) { return std::abs(p.z() - ground->z()) <= options.seed_window; }),
+                     options);
+    if (!onGround(plane)) return std::nullopt;
   }
   if (!plane) return std::nullopt;
   // The lowest supported plane: a table top, a bed or a low step found first gives way to the
@@ -155,7 +166,7 @@ std::optional<FloorFit> fitFloor(const std::vector<Eigen::Vector3d>& samples, co
     std::optional<FloorPlane> lower = fitPlane(
         cloud, where([&](const Eigen::Vector3d& p) { return current.distance(p) < -2.0 * options.inlier_distance; }),
         options);
-    if (!lower) break;
+    if (!onGround(lower)) break;
     plane = lower;
   }
   // One surface or two: a plane that holds the floor and a step's top is refitted to the floor,
@@ -171,7 +182,7 @@ std::optional<FloorFit> fitFloor(const std::vector<Eigen::Vector3d>& samples, co
     if (std::optional<FloorPlane> floor = fitPlane(
             cloud, where([&](const Eigen::Vector3d& p) { return std::abs(p.z() - level) <= options.inlier_distance; }),
             options)) {
-      plane = floor;
+      if (onGround(floor)) plane = floor;
     }
   }
   FloorFit fit;

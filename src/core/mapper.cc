@@ -78,10 +78,11 @@ void Mapper::boundUnflushed() {
 namespace {
 
 // What frame `frame` is measured against: its floor found and folded into the layer in its turn.
-FloorStage floorStageOf(FloorLayer* layer, std::uint64_t frame, double reach) {
-  return [layer, frame, reach](const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples,
-                                const std::vector<std::uint32_t>* cells) {
-    return layer->observe(frame, sensor, samples, reach, cells);
+FloorStage floorStageOf(FloorLayer* layer, std::uint64_t frame, double reach,
+                        const std::optional<Eigen::Vector3d>& ground) {
+  return [layer, frame, reach, ground](const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples,
+                                       const std::vector<std::uint32_t>* cells) {
+    return layer->observe(frame, sensor, samples, reach, cells, ground);
   };
 }
 
@@ -102,11 +103,11 @@ class FloorTurn {
 // the points its conversion left out counted with it.
 PreparedCloud prepareOnFloor(ScanInserter& inserter, FloorLayer* floor, double reach, const Eigen::Vector3d& origin,
                              const std::vector<Eigen::Vector3f>& points, const ReadingCounts& left_out,
-                             std::optional<std::uint64_t> floor_frame) {
+                             std::optional<std::uint64_t> floor_frame, const std::optional<Eigen::Vector3d>& ground) {
   const std::uint64_t frame = floor_frame ? *floor_frame : floor->take();
   const FloorTurn turn(floor, frame);
-  PreparedCloud prepared =
-      inserter.prepareCloud(origin, points, inserter.model().halfAngleFor(0.0), floorStageOf(floor, frame, reach));
+  PreparedCloud prepared = inserter.prepareCloud(origin, points, inserter.model().halfAngleFor(0.0),
+                                                 floorStageOf(floor, frame, reach, ground));
   prepared.result.readings += left_out;
   prepared.floor_frame = frame;
   return prepared;
@@ -115,16 +116,18 @@ PreparedCloud prepareOnFloor(ScanInserter& inserter, FloorLayer* floor, double r
 }  // namespace
 
 InsertResult Mapper::insertPoints(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points) {
-  return insertCloud(origin, points, std::nullopt, ReadingCounts());
+  return insertCloud(origin, points, std::nullopt, ReadingCounts(), std::nullopt);
 }
 
 InsertResult Mapper::insert(const SensorCloud& cloud, std::optional<std::uint64_t> floor_frame) {
-  return insertCloud(cloud.origin, cloud.points, floor_frame, cloud.left_out);
+  return insertCloud(cloud.origin, cloud.points, floor_frame, cloud.left_out, cloud.ground);
 }
 
 InsertResult Mapper::insertCloud(const Eigen::Vector3d& origin, const std::vector<Eigen::Vector3f>& points,
-                                 std::optional<std::uint64_t> floor_frame, const ReadingCounts& left_out) {
-  PreparedCloud prepared = prepareOnFloor(*inserter_, floor_.get(), floorReach(), origin, points, left_out, floor_frame);
+                                 std::optional<std::uint64_t> floor_frame, const ReadingCounts& left_out,
+                                 const std::optional<Eigen::Vector3d>& ground) {
+  PreparedCloud prepared =
+      prepareOnFloor(*inserter_, floor_.get(), floorReach(), origin, points, left_out, floor_frame, ground);
   const std::optional<std::uint64_t> frame = prepared.floor_frame;
   return record(inserter_->applyCloud(std::move(prepared)), /*cloud=*/true, frame);
 }
@@ -193,7 +196,8 @@ PreparedCloud CloudPreparer::prepare(const SensorCloud& cloud, std::optional<std
     prepared.result.readings += cloud.left_out;
     return prepared;
   }
-  return prepareOnFloor(inserter_, floor_, floor_reach_, cloud.origin, cloud.points, cloud.left_out, floor_frame);
+  return prepareOnFloor(inserter_, floor_, floor_reach_, cloud.origin, cloud.points, cloud.left_out, floor_frame,
+                        cloud.ground);
 }
 
 std::unique_ptr<CloudPreparer> Mapper::cloudPreparer() const {

@@ -298,6 +298,18 @@ bool MapperNode::sensorPose(const std_msgs::Header& header, Eigen::Isometry3d* p
   }
 }
 
+std::optional<Eigen::Vector3d> MapperNode::groundAt(const ros::Time& stamp) {
+  try {
+    return tf2::transformToEigen(tf_buffer_.lookupTransform(options_.frame_id, options_.floor_base_frame, stamp))
+        .translation();
+  } catch (const tf2::TransformException& e) {
+    // The frame's floor is then found from its points alone: nothing is lost.
+    ROS_WARN_THROTTLE(5.0, "no transform %s <- %s (floor_base_frame) for a point cloud: its floor is found from its "
+                      "points alone: %s", options_.frame_id.c_str(), options_.floor_base_frame.c_str(), e.what());
+    return std::nullopt;
+  }
+}
+
 void MapperNode::checkTimeJump(const ros::Time& stamp) {
   constexpr double kTolerance = 1.0;  // s: messages from several sources may interleave a little
   bool jumped = false;
@@ -331,6 +343,7 @@ void MapperNode::insert(const boost::shared_ptr<const M>& msg, const Eigen::Isom
   }
   const ros::Time stamp = msg->header.stamp;
   if constexpr (std::is_same_v<M, sensor_msgs::PointCloud2>) {
+    if (!options_.floor_base_frame.empty()) core.ground = groundAt(stamp);
     // Converted and prepared on the pipeline's workers, frames in parallel, applied in arrival
     // order; this thread goes back to the scans (it waits only when frames pile up).
     cloud_pipeline_->submit(std::move(core),

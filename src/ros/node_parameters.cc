@@ -61,6 +61,11 @@ const std::vector<OptionSpec<NodeOptions>>& nodeOptionTable() {
       {"cloud_topics", "", "PointCloud2 topics, one per depth camera (a list, or names separated by spaces)",
        [](O& o) -> OptionField { return &o.cloud_topics; }},
       {"frame_id", "", "fixed frame of the map", [](O& o) -> OptionField { return &o.frame_id; }},
+      {"floor_base_frame", "",
+       "a frame whose origin lies on the floor the robot stands on (base_footprint): each depth frame's floor is the one "
+       "through it, so that no table and no floor below an edge (a stairwell) is taken for it; \"\" = none (a hand-held "
+       "camera: the floor is found from the points alone)",
+       [](O& o) -> OptionField { return &o.floor_base_frame; }},
       {"publish_rate", "Hz", "the whole map is published this often when it changed",
        [](O& o) -> OptionField { return &o.publish_rate; }, true},
       {"publish_markers", "", "publish ~occupied_cells", [](O& o) -> OptionField { return &o.publish_markers; }},

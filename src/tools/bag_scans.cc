@@ -57,7 +57,7 @@ void hold(const rosbag::MessageInstance& m, const char* wrong_type, const char* 
 // chunk of a camera's bag, since its tf lies in the chunks beside the clouds: the whole bag twice.
 bool readBag(const std::string& path, const BagTopics& topics, const std::string& fixed_frame,
              const BagHandlers& handlers, std::map<std::string, std::size_t>* skipped, std::string* error,
-             const std::function<void(double)>& progress) {
+             const std::function<void(double)>& progress, const std::string& floor_base_frame) {
   try {
     rosbag::Bag bag(path, rosbag::bagmode::Read);
     const std::set<std::string> tf_topics = {"/tf", "/tf_static"};
@@ -153,8 +153,18 @@ bool readBag(const std::string& path, const BagTopics& topics, const std::string
       } else {
         hold<sensor_msgs::PointCloud2, DeferredCloud>(
             m, "cloud_not_a_point_cloud2", "cloud_no_transform",
-            [](const sensor_msgs::PointCloud2::ConstPtr& msg, const Eigen::Isometry3d& pose, DeferredCloud* out) {
-              return ros_adapter::toDeferredCloud(msg, pose, out);
+            [&](const sensor_msgs::PointCloud2::ConstPtr& msg, const Eigen::Isometry3d& pose, DeferredCloud* out) {
+              const ros_adapter::ScanRejection rejection = ros_adapter::toDeferredCloud(msg, pose, out);
+              if (!rejection.rejected() && !floor_base_frame.empty()) {
+                try {
+                  out->ground = tf2::transformToEigen(
+                                    buffer.lookupTransform(fixed_frame, floor_base_frame, msg->header.stamp))
+                                    .translation();
+                } catch (const tf2::TransformException&) {
+                  (*skipped)["cloud_no_ground"]++;  // its floor found from its points alone
+                }
+              }
+              return rejection;
             },
             handlers.cloud, skipped, &held);
       }

@@ -1,7 +1,8 @@
 // octo_slice_map: offline mapping of a recorded log (CARMEN .log/.clf, gzip or plain) or rosbag.
 //
 //   octo_slice_map LOG [options]
-//   octo_slice_map --bag FILE [--scan-topic scan]... [--cloud-topic TOPIC]... [--fixed-frame odom] [options]
+//   octo_slice_map --bag FILE [--scan-topic scan]... [--cloud-topic TOPIC]... [--fixed-frame odom]
+//                  [--floor-base-frame base_footprint] [options]
 //
 // --cloud-topic maps a bag's PointCloud2 messages (a depth camera's) into the same octree, in the
 // bag's order with the scans; --scan-topic "" maps the clouds alone. Both may be given more than
@@ -42,7 +43,7 @@ using Clock = std::chrono::steady_clock;
 namespace {
 
 struct Args {
-  std::string log, bag, fixed_frame = "odom", out;
+  std::string log, bag, fixed_frame = "odom", floor_base_frame, out;
   std::vector<std::string> scan_topics = {"scan"}, cloud_topics;  // "" in either: none
   bool hasCloudTopic() const {
     return std::any_of(cloud_topics.begin(), cloud_topics.end(), [](const std::string& t) { return !t.empty(); });
@@ -104,6 +105,9 @@ bool parse(int argc, char** argv, Args* a, int* code) {
                  "the bag's PointCloud2 topic (a depth camera), mapped too; again for each further camera")
       ->allow_extra_args(false);
   app.add_option("--fixed-frame", a->fixed_frame, "the bag's fixed frame")->capture_default_str();
+  app.add_option("--floor-base-frame", a->floor_base_frame,
+                 "a frame whose origin lies on the floor the robot stands on (base_footprint): each depth frame's "
+                 "floor is the one through it (default: none, the floor found from the points alone)");
   app.add_option("--out", a->out, "output prefix (default: the package's maps/<log name>)");
   app.add_option("--laser-z", a->carmen.laser_z, "height given to 2D log scans (m)")->capture_default_str();
   app.add_flag("--optimize,!--no-optimize", a->optimize,
@@ -302,8 +306,9 @@ int mapBag(const Args& args, Feeder* feed, osm::tools::ProgressBar* bar, Intake*
   handlers.scan = [&](const osm::Scan& scan) { feed->scan(scan, args.bag + ": scan " + std::to_string(bag_scans++)); };
   handlers.cloud = [&](const osm::DeferredCloud& cloud) { feed->cloud(cloud); };
   std::string error;
-  if (!osm::tools::readBag(args.bag, {args.scan_topics, args.cloud_topics}, args.fixed_frame, handlers,
-                           &intake->skipped_scans, &error, [&](double f) { bar->update("mapping bag", f); })) {
+  if (!osm::tools::readBag(
+          args.bag, {args.scan_topics, args.cloud_topics}, args.fixed_frame, handlers, &intake->skipped_scans, &error,
+          [&](double f) { bar->update("mapping bag", f); }, args.floor_base_frame)) {
     std::cerr << "octo_slice_map: " << error << "\n";
     return 1;
   }

@@ -139,13 +139,19 @@ class FloorLayer {
   // `cells`, when given, holds each sample's cell, the octree column it lies in (its end voxel's):
   // key x | key y << 16, or 0xffffffff for none (which the map's far corner cell, keys 65535 and
   // 65535, is taken for). Otherwise each sample's cell is that of its x and y.
+  // `ground`, when given, is a point on the floor the sensor's carrier stands on (a robot's
+  // base_footprint, map frame): the frame's floor is then the plane through it (within max_step)
+  // or none, and is trusted over the layer: neither a table nor a floor below an edge is taken for
+  // it, and a step the carrier climbed is its floor.
   // Waits (only) until frame - kLag has been folded in. A frame already folded in (inserted
   // anew after a reset) is measured against the layer as it is now and not folded in again.
   FloorView observe(std::uint64_t frame, const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples,
-                    double reach, const std::vector<std::uint32_t>* cells = nullptr);
+                    double reach, const std::vector<std::uint32_t>* cells = nullptr,
+                    const std::optional<Eigen::Vector3d>& ground = std::nullopt);
   // observe(take(), ...): one frame after another.
-  FloorView observe(const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples, double reach) {
-    return observe(take(), sensor, samples, reach);
+  FloorView observe(const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples, double reach,
+                    const std::optional<Eigen::Vector3d>& ground = std::nullopt) {
+    return observe(take(), sensor, samples, reach, nullptr, ground);
   }
   // Frame `frame` is not observed (refused before its floor was asked for): its turn passes.
   // Nothing when it was observed. Every number taken must be observed or passed.
@@ -197,6 +203,7 @@ class FloorLayer {
     bool observed = false;  // false: passed
     Eigen::Vector3d sensor = Eigen::Vector3d::Zero();
     std::optional<BoundedPlane> plane;  // none: no floor found in the frame
+    bool grounded = false;              // the plane passes through the carrier's ground point
     std::vector<std::uint32_t> floor_cells, other_cells;  // (key x | key y << 16), each once
   };
   static std::uint32_t tileId(int tx, int ty) { return std::uint32_t(tx) | std::uint32_t(ty) << 16; }
@@ -236,7 +243,7 @@ class FloorLayer {
   // A frame's floor measured against `known`: whether it is the floor, and the cells it speaks for.
   Fold measure(const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples,
                const std::vector<std::uint32_t>* cells, const Known& known, const FloorOptions& options,
-               double inverse_resolution) const;
+               double inverse_resolution, const std::optional<Eigen::Vector3d>& ground) const;
   // Folds in the frames whose turn it is (under the lock).
   void foldReady();
   void fold(const Fold& frame);

@@ -63,7 +63,13 @@ struct BoundedPlane {
 // samples support, looked for near `seed` first. A table top is level too: a lower supported
 // plane is always taken over it. Empty when no plane qualifies (a frame facing a wall, clutter,
 // too few floor returns). Deterministic: the same samples give the same plane.
+// `ground`, when given, is a point on the floor the sensor's carrier stands on (a robot's
+// base_footprint): then only a plane within `ground_tolerance` of it at its x-y is the floor, so
+// that neither a table nor a lower floor beyond an edge (a stairwell, a loading dock) is taken
+// for it; empty when the frame shows no such plane.
 std::optional<FloorFit> fitFloor(const std::vector<Eigen::Vector3d>& samples, const Eigen::Vector3d& sensor,
-                                 const std::optional<FloorPlane>& seed, const FloorFitOptions& options);
+                                 const std::optional<FloorPlane>& seed, const FloorFitOptions& options,
+                                 const std::optional<Eigen::Vector3d>& ground = std::nullopt,
+                                 double ground_tolerance = 0.05);
 
 }  // namespace octo_slice_mapper
