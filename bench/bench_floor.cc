@@ -18,9 +18,11 @@
 // no flying-pixel filter), for comparison in the same run. ms/frame: one thread, conversion,
 // flying-pixel test and insertion (its share: the last column); ref ms: OctoMap's insertion.
 // --held-out: four more frames of reference (variants()) and a robot's camera in the simulator
-// (0.35 m up, pitched 0.10 rad), a check that the defaults carry over; and that camera driving
-// straight up to a platform 8 cm high across the room's far end (robotToPlatform), a case the
-// floor finding gets wrong (design.md, the floor's limits).
+// (0.35 m up, pitched 0.10 rad), a check that the defaults carry over; that camera driving
+// straight up to a platform 8 cm high across the room's far end (robotToPlatform), and up to an
+// edge with the floor 1 m lower beyond it (robotToTheEdge), which the camera alone gets wrong;
+// and the robot's rows again with its base_footprint as each frame's ground point
+// (floor_base_frame), rows named "..., base".
 #include <octomap/OcTree.h>
 
 #include <cctype>
