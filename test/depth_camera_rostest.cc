@@ -1,7 +1,8 @@
 // Through a real roscore: a TurtleBot's depth camera (simulated Kinect, organized clouds
 // with NaN where it sees nothing) into cloud_in. With the navigation band the table top (0.72 m)
 // and the shelf's overhang (0.45-0.60 m) are occupied in /map, where the lidar's band, which the
-// lidar sees through, has free floor or nothing; the floor itself is never occupied.
+// lidar sees through, has free floor or nothing; the floor itself is never occupied. The floor is
+// the one through the robot's base_footprint (floor_base_frame).
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <gtest/gtest.h>
@@ -31,18 +32,21 @@ using octo_slice_mapper::test_support::waitFor;
 TEST(DepthCamera, TheNavigationBandShowsTheTableTopAndTheOverhangTheLidarBandDoesNot) {
   ros::NodeHandle nh;
   nav_msgs::OccupancyGrid::ConstPtr nav, lidar;
-  std::map<std::string, double> diagnostics;
+  std::map<std::string, double> diagnostics, raised;
   ros::Subscriber diag_sub = nh.subscribe<diagnostic_msgs::DiagnosticArray>("/diagnostics", 20, [&](const auto& msg) {
     for (const auto& status : msg->status) {
-      if (status.name.rfind("/nav_mapper:", 0) != 0) continue;
-      for (const auto& kv : status.values) diagnostics[kv.key] = std::atof(kv.value.c_str());
+      std::map<std::string, double>* values = status.name.rfind("/nav_mapper:", 0) == 0           ? &diagnostics
+                                               : status.name.rfind("/raised_base_mapper:", 0) == 0 ? &raised
+                                                                                                   : nullptr;
+      if (!values) continue;
+      for (const auto& kv : status.values) (*values)[kv.key] = std::atof(kv.value.c_str());
     }
   });
   nav_msgs::OccupancyGrid::ConstPtr heights;
   ros::Subscriber heights_sub = nh.subscribe<nav_msgs::OccupancyGrid>(
       "/nav_mapper/height_map", 1, [&](const nav_msgs::OccupancyGrid::ConstPtr& msg) { heights = msg; });
   ros::Publisher cloud_pub = nh.advertise<sensor_msgs::PointCloud2>("cloud_in", 10);
-  ASSERT_TRUE(waitFor([&] { return cloud_pub.getNumSubscribers() >= 2; }, 20.0)) << "the mappers did not subscribe";
+  ASSERT_TRUE(waitFor([&] { return cloud_pub.getNumSubscribers() >= 3; }, 20.0)) << "the mappers did not subscribe";
 
   // The camera on the TurtleBot: 0.10 m forward of the base, 0.30 m up (here, with the base
   // moving, the whole chain is one transform odom -> optical frame per frame).
@@ -62,7 +66,7 @@ TEST(DepthCamera, TheNavigationBandShowsTheTableTopAndTheOverhangTheLidarBandDoe
   // tf first, until both mappers' listeners have it (a cloud before that would wait for it and
   // might time out).
   ros::Publisher tf_probe = nh.advertise<tf2_msgs::TFMessage>("/tf", 10);
-  ASSERT_TRUE(waitFor([&] { return tf_probe.getNumSubscribers() >= 2; }, 20.0)) << "the mappers do not listen to /tf";
+  ASSERT_TRUE(waitFor([&] { return tf_probe.getNumSubscribers() >= 3; }, 20.0)) << "the mappers do not listen to /tf";
   int sent = 0;
   for (int round = 0; round < 3; ++round) {
     for (const View& v : views) {
@@ -73,13 +77,23 @@ TEST(DepthCamera, TheNavigationBandShowsTheTableTopAndTheOverhangTheLidarBandDoe
       t.header.frame_id = "odom";
       t.child_frame_id = "camera_depth_optical_frame";
       t.header.stamp = stamp;
-      tf.sendTransform(t);
+      // The base on the floor (base_footprint), and a frame 0.5 m above it.
+      Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
+      base.translation() = v.base;
+      geometry_msgs::TransformStamped footprint = tf2::eigenToTransform(base);
+      footprint.header = t.header;
+      footprint.child_frame_id = "base_footprint";
+      base.translation().z() += 0.5;
+      geometry_msgs::TransformStamped lifted = tf2::eigenToTransform(base);
+      lifted.header = t.header;
+      lifted.child_frame_id = "base_raised";
+      tf.sendTransform({t, footprint, lifted});
       sensor_msgs::PointCloud2 cloud = osm::ros_adapter::organizedCloud(osm::sim::depthFrame(room, pose, spec, &rng), spec.width, spec.height,
                                                                   "camera_depth_optical_frame");
       cloud.header.stamp = stamp;
       ros::WallDuration(0.05).sleep();
-      t.header.stamp = stamp + ros::Duration(0.05);  // tf past the cloud's stamp: no waiting
-      tf.sendTransform(t);
+      t.header.stamp = footprint.header.stamp = lifted.header.stamp = stamp + ros::Duration(0.05);  // no waiting
+      tf.sendTransform({t, footprint, lifted});
       cloud_pub.publish(cloud);
       ++sent;
       ros::WallDuration(0.1).sleep();
@@ -143,6 +157,12 @@ TEST(DepthCamera, TheNavigationBandShowsTheTableTopAndTheOverhangTheLidarBandDoe
   for (double x = 1.5; x < 2.4; x += 0.1) bare += cellOf(heights, x, 1.9) == 0;
   EXPECT_GT(top_height, top_cells * 7 / 10) << top_height << " of " << top_cells << " table-top cells at 0.64-0.80 m";
   EXPECT_GT(bare, 5) << "bare floor cells between the robot and the table";
+
+  // The node takes each cloud's ground point from floor_base_frame: with the base frame 0.5 m
+  // above the floor no frame finds a floor (and each one still goes into the map).
+  ASSERT_TRUE(waitFor([&] { return raised["clouds_inserted"] >= sent && raised["floor_frames_without"] >= sent; }, 30.0))
+      << "clouds inserted " << raised["clouds_inserted"] << ", frames without a floor " << raised["floor_frames_without"];
+  EXPECT_EQ(raised["floor_frames_found"], 0.0);
 }
 
 int main(int argc, char** argv) {
