@@ -4,8 +4,8 @@
 #include <Eigen/Geometry>
 #include <cstdint>
 #include <functional>
-#include <string>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "octo_slice_mapper/internal/flying_pixels.h"
