@@ -180,34 +180,24 @@ inline bool mayLeaveBox(const WalkAxis (&axes)[3], const int (&n)[3]) {
   return !(first_extra > last_due + 1e-9 * std::max(1.0, last_due));
 }
 
-// walkSpace for the walks mayLeaveBox flags: axis d takes exactly n[d] steps, so the walk ends on
-// the end voxel. In the last three steps t_exit is at most 1 (past 1, a crossing's parameter is
-// rounding). An axis without steps never takes one. Of the others, only an axis' last due crossing
-// can come as late as an extra one (two crossings of an axis are at least 1/65 536 of the segment
-// apart, rounding far less): at most three, so the walk's first total - 3 crossings are due ones,
-// taken as walkSpace takes them (what each axis took is worked out once, after them); the last
-// three are chosen among the axes with steps left. A simulated camera placed on voxel corners sends
-// a fifth of its walks here; real data, none of a TUM sequence's.
+// The last steps of a walk mayLeaveBox flags, from the state its first total - 3 steps left (p the
+// next cell, tx, ty, tz the axes' next crossings): axis d takes exactly n[d] steps in all, so the
+// walk ends on the end voxel. Here t_exit is at most 1 (past 1, a crossing's parameter is
+// rounding), and the next cell is chosen among the axes with steps left. What each axis took so
+// far is worked out from where its parameter got to (a sum of `delta`s: off by far less than half
+// a step).
 template <typename Index, typename Visit>
-__attribute__((always_inline)) inline bool walkSpaceCounted(Index& p, const WalkAxis (&axes)[3],
-                                                            const AxisSteps<Index>& step, const int (&n)[3],
-                                                            Visit&& visit) {
+__attribute__((always_inline)) inline bool lastStepsCounted(Index& p, double tx, double ty, double tz,
+                                                            const WalkAxis& ax, const WalkAxis& ay,
+                                                            const WalkAxis& az, const AxisSteps<Index>& step,
+                                                            const int (&n)[3], Visit&& visit) {
   constexpr double kNever = std::numeric_limits<double>::infinity();
-  const WalkAxis ax = n[0] > 0 ? axes[0] : WalkAxis{axes[0].step, kNever, kNever};
-  const WalkAxis ay = n[1] > 0 ? axes[1] : WalkAxis{axes[1].step, kNever, kNever};
-  const WalkAxis az = n[2] > 0 ? axes[2] : WalkAxis{axes[2].step, kNever, kNever};
-  double tx = ax.next, ty = ay.next, tz = az.next;
-  const int total = n[0] + n[1] + n[2];
-  if (!walkSpaceLoop<false>(p, tx, ty, tz, ax, ay, az, step, total - 3, visit)) return false;
-  int steps = std::min(total, 3);
-  // The crossings each axis took, from where its parameter got to (a sum of `delta`s: off by far
-  // less than half a step), and so the steps it has left.
   const auto taken = [](const WalkAxis& a, double t) {
     if (t == a.next) return 0;
     return std::isfinite(a.delta) ? static_cast<int>(std::lround((t - a.next) / a.delta)) : 1;
   };
   int nx = n[0] - taken(ax, tx), ny = n[1] - taken(ay, ty), nz = n[2] - taken(az, tz);
-  for (;; --steps) {
+  for (int steps = std::min(n[0] + n[1] + n[2], 3);; --steps) {
     const double ex = nx > 0 ? tx : kNever, ey = ny > 0 ? ty : kNever, ez = nz > 0 ? tz : kNever;
     const bool x_before_y = ex < ey;
     const double t_xy = x_before_y ? ex : ey;
@@ -230,6 +220,13 @@ __attribute__((always_inline)) inline bool walkSpaceCounted(Index& p, const Walk
 // per step, and each axis only as far as its end key: every voxel visited lies in the key box of
 // from_key and to_key (a window over that box is never left), and the last is to_key's.
 // False if visit stopped the walk (the end voxel is then not visited).
+// Only an axis' last due crossing can come as late as an extra one (mayLeaveBox; two crossings of
+// an axis are at least 1/65 536 of the segment apart, rounding far less): at most three, so the
+// walk's first total - 3 crossings are due ones whatever the walk, taken as walkSpace takes them
+// (an axis without steps never takes one). Whether the last three need counting is asked only of
+// the walks that get there: most of a depth frame's walks stop in shared free space long before.
+// (A simulated camera placed on voxel corners sends a fifth of its walks to the counted steps;
+// real data, none of a TUM sequence's.)
 template <typename Cells, typename Visit>
 inline bool traverseVoxels(const octomap::OcTree& tree, const Eigen::Vector3d& from, const Eigen::Vector3d& to,
                            const octomap::OcTreeKey& from_key, const octomap::OcTreeKey& to_key, const Cells& cells,
@@ -244,9 +241,17 @@ inline bool traverseVoxels(const octomap::OcTree& tree, const Eigen::Vector3d& f
   }
   const auto step = AxisSteps<Index>::of(axes[0], axes[1], axes[2], cells.stride(0), cells.stride(1), cells.stride(2));
   Index p = cells.indexOf(from_key);
-  // A flagged walk differs from walkSpace's in its last three steps only.
-  if (detail::mayLeaveBox(axes, n)) return detail::walkSpaceCounted(p, axes, step, n, visit);
-  return walkSpace(p, axes[0], axes[1], axes[2], step, n[0] + n[1] + n[2], visit);
+  const WalkAxis ax = n[0] > 0 ? axes[0] : WalkAxis{axes[0].step, never, never};
+  const WalkAxis ay = n[1] > 0 ? axes[1] : WalkAxis{axes[1].step, never, never};
+  const WalkAxis az = n[2] > 0 ? axes[2] : WalkAxis{axes[2].step, never, never};
+  double tx = ax.next, ty = ay.next, tz = az.next;
+  const int total = n[0] + n[1] + n[2];
+  if (!detail::walkSpaceLoop<false>(p, tx, ty, tz, ax, ay, az, step, total - 3, visit)) return false;
+  if (detail::mayLeaveBox(axes, n)) return detail::lastStepsCounted(p, tx, ty, tz, ax, ay, az, step, n, visit);
+  // An axis without steps has its crossing back: it comes after every due one, so the walk takes
+  // the same steps, and the last voxel's t_exit is walkSpace's own.
+  tx = n[0] > 0 ? tx : axes[0].next, ty = n[1] > 0 ? ty : axes[1].next, tz = n[2] > 0 ? tz : axes[2].next;
+  return detail::walkSpaceLoop<true>(p, tx, ty, tz, axes[0], axes[1], axes[2], step, std::min(total, 3), visit);
 }
 
 }  // namespace octo_slice_mapper
