@@ -297,13 +297,19 @@ osm::sim::BoxScene officeWithPlatform() {
   return scene;
 }
 
-std::vector<Frame> robotToPlatform(const osm::sim::BoxScene& scene, int count, unsigned seed) {
+// The robot's camera (0.35 m up, pitched 0.10 rad down) driving along y from x0 to x1, facing +x.
+std::vector<Frame> robotAlongX(const osm::sim::BoxScene& scene, double x0, double x1, double y, int count,
+                               unsigned seed) {
   std::vector<Eigen::Isometry3d> poses;
   for (int k = 0; k < count; ++k) {
-    const double x = 1.0 + 2.9 * k / std::max(1, count - 1);
-    poses.push_back(osm::sim::opticalPose(Eigen::Vector3d(x, 3.2, 0.35), 0.0, 0.10));
+    const double x = x0 + (x1 - x0) * k / std::max(1, count - 1);
+    poses.push_back(osm::sim::opticalPose(Eigen::Vector3d(x, y, 0.35), 0.0, 0.10));
   }
   return framesAt(scene, poses, 0.0, seed);
+}
+
+std::vector<Frame> robotToPlatform(const osm::sim::BoxScene& scene, int count, unsigned seed) {
+  return robotAlongX(scene, 1.0, 3.9, 3.2, count, seed);
 }
 
 bool realFrames(const std::string& folder, const osm::tools::DepthIntrinsics& intrinsics, int every,
@@ -362,12 +368,7 @@ double floorAtTheEdge(double x) { return x < kEdgeX ? 0.0 : -1.0; }
 // The robot's camera driving along y = 2.6 m from x = 0.6 to 3.8 m towards the edge, past the
 // table: in its last frames the floor below fills most of the view.
 std::vector<Frame> robotToTheEdge(const osm::sim::BoxScene& scene, int count, unsigned seed) {
-  std::vector<Eigen::Isometry3d> poses;
-  for (int k = 0; k < count; ++k) {
-    const double x = 0.6 + 3.2 * k / std::max(1, count - 1);
-    poses.push_back(osm::sim::opticalPose(Eigen::Vector3d(x, 2.6, 0.35), 0.0, 0.10));
-  }
-  return framesAt(scene, poses, 0.0, seed);
+  return robotAlongX(scene, 0.6, 3.8, 2.6, count, seed);
 }
 
 }  // namespace
