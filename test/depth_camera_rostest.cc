@@ -63,7 +63,7 @@ TEST(DepthCamera, TheNavigationBandShowsTheTableTopAndTheOverhangTheLidarBandDoe
   // Pitched down 0.1 rad, the camera (0.30 m up) sees the underside of the table top from 1.4 m on.
   const std::vector<View> views = {{{0.8, 1.9, 0.0}, 0.0, 0.1}, {{0.9, 1.7, 0.0}, 0.1, 0.1},
                                    {{1.8, 2.8, 0.0}, 1.5708, 0.1}, {{1.6, 2.9, 0.0}, 1.45, 0.1}};
-  // tf first, until both mappers' listeners have it (a cloud before that would wait for it and
+  // tf first, until the mappers' listeners have it (a cloud before that would wait for it and
   // might time out).
   ros::Publisher tf_probe = nh.advertise<tf2_msgs::TFMessage>("/tf", 10);
   ASSERT_TRUE(waitFor([&] { return tf_probe.getNumSubscribers() >= 3; }, 20.0)) << "the mappers do not listen to /tf";
