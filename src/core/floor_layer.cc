@@ -232,6 +232,20 @@ double FloorLayer::highestFloorAt(double x, double y, std::uint64_t folded, doub
   return tile->height[i] + (tile->weight[i] > 0 ? std::min(options.max_rise, options.max_step) : options.max_rise);
 }
 
+bool FloorLayer::aboveKnownFloor(const BoundedPlane& plane, bool grounded, const Eigen::Vector3d& sensor,
+                                 const Known& known, std::uint64_t folded, const FloorOptions& options) const {
+  if (grounded || !known.fallback_found || !known.last_plane) return false;
+  const double highest =
+      highestFloorAt(sensor.x(), sensor.y(), folded, known.last_plane->heightAt(sensor.x(), sensor.y()), options);
+  return plane.heightAt(sensor.x(), sensor.y()) > highest;
+}
+
+bool FloorLayer::belowKnownFloor(const BoundedPlane& plane, bool grounded, const Eigen::Vector3d& sensor,
+                                 const Known& known, const FloorOptions& options) {
+  return !grounded && known.fallback_found &&
+         plane.heightAt(sensor.x(), sensor.y()) < known.fallback_height - options.fit.seed_window;
+}
+
 std::uint64_t FloorLayer::take() {
   std::lock_guard<std::mutex> lock(mutex_);
   return taken_++;
@@ -338,24 +352,19 @@ FloorView FloorLayer::observe(std::uint64_t frame, const Eigen::Vector3d& sensor
   Fold measured = measure(sensor, samples, cells, known, options, inverse_resolution, ground);
 
   lock.lock();
-  if (measured.plane && !measured.grounded && known.fallback_found && known.last_plane) {
-    // Once a floor is known, a level surface well above it is not the floor (FloorOptions::max_rise,
-    // max_step).
-    const double highest =
-        highestFloorAt(sensor.x(), sensor.y(), folded, known.last_plane->heightAt(sensor.x(), sensor.y()), options);
-    if (measured.plane->heightAt(sensor.x(), sensor.y()) > highest) {
-      measured.plane.reset();
-      measured.floor_cells.clear();
-      measured.other_cells.clear();
-    }
+  // Once a floor is known, a level surface well above it is not the floor (FloorOptions::max_rise,
+  // max_step).
+  if (measured.plane && aboveKnownFloor(*measured.plane, measured.grounded, sensor, known, folded, options)) {
+    measured.plane.reset();
+    measured.floor_cells.clear();
+    measured.other_cells.clear();
   }
   FloorView view;
   view.inverse_resolution_ = inverse_resolution;
   view.plane_ = measured.plane ? measured.plane : known.last_plane;  // this frame's, or the last one found
   // A floor found well below the one known (what was taken for the floor was a table): the
   // cells known are not this frame's floor.
-  const bool lower = measured.plane && !measured.grounded && known.fallback_found &&
-                     measured.plane->heightAt(sensor.x(), sensor.y()) < known.fallback_height - options.fit.seed_window;
+  const bool lower = measured.plane && belowKnownFloor(*measured.plane, measured.grounded, sensor, known, options);
   // The rectangle even where nothing is known: the frame's own measurements go into it below.
   if (reach > 0.0) {
     const double r = std::min(reach, 1000.0);
@@ -428,13 +437,10 @@ void FloorLayer::fold(const Fold& frame) {
   if (!frame.observed) return;
   const Eigen::Vector3d& sensor = frame.sensor;
   std::optional<BoundedPlane> found = frame.plane;
-  if (found && !frame.grounded && fallback_found_ && last_plane_) {
-    // The table rule again, against the layer now: frames folded in since it was measured may
-    // have found the floor.
-    const double highest = highestFloorAt(sensor.x(), sensor.y(), ~std::uint64_t{0},
-                                          last_plane_->heightAt(sensor.x(), sensor.y()), options_);
-    if (found->heightAt(sensor.x(), sensor.y()) > highest) found.reset();
-  }
+  const Known now{last_plane_, fallback_found_, fallback_height_};
+  // The table rule again, against the layer now: frames folded in since it was measured may have
+  // found the floor.
+  if (found && aboveKnownFloor(*found, frame.grounded, sensor, now, ~std::uint64_t{0}, options_)) found.reset();
   if (!found) {
     status_.source = fallback_found_ ? FloorSource::kKept : FloorSource::kAssumed;
     status_.height = last_plane_ ? last_plane_->heightAt(sensor.x(), sensor.y()) : 0.0;
@@ -443,9 +449,8 @@ void FloorLayer::fold(const Fold& frame) {
   }
   const BoundedPlane& plane = *found;
   const double height = plane.heightAt(sensor.x(), sensor.y());
-  // A floor found well below the one known: what was taken for the floor was a table or a bed
-  // (never so for a plane through the carrier's ground point: the known floor is another level).
-  if (!frame.grounded && fallback_found_ && height < fallback_height_ - options_.fit.seed_window) {
+  // A floor found well below the one known: what was taken for the floor was a table or a bed.
+  if (belowKnownFloor(plane, frame.grounded, sensor, now, options_)) {
     std::vector<std::uint32_t> ids;
     for (const auto& entry : tiles_) ids.push_back(entry.first);
     for (std::uint32_t id : ids) {

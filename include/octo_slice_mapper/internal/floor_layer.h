@@ -240,6 +240,16 @@ class FloorLayer {
   static double measuredMean(float before, std::uint8_t weight, double measured, const FloorOptions& options) {
     return replaces(before, weight, measured, options) ? measured : (before * weight + measured) / (weight + 1);
   }
+  // The table rule: whether a frame's plane, seen from `sensor`, stands higher over the floor
+  // known (`known`, the layer once `folded` frames were folded in) than a floor may (highestFloorAt).
+  // Never for a plane through the carrier's ground point (`grounded`).
+  bool aboveKnownFloor(const BoundedPlane& plane, bool grounded, const Eigen::Vector3d& sensor, const Known& known,
+                       std::uint64_t folded, const FloorOptions& options) const;
+  // Whether it lies well below the floor known (farther than the seed window): what was taken for
+  // the floor was a table, and the cells known are not this floor. Never for a grounded plane: the
+  // known floor is then another level.
+  static bool belowKnownFloor(const BoundedPlane& plane, bool grounded, const Eigen::Vector3d& sensor,
+                              const Known& known, const FloorOptions& options);
   // A frame's floor measured against `known`: whether it is the floor, and the cells it speaks for.
   Fold measure(const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples,
                const std::vector<std::uint32_t>* cells, const Known& known, const FloorOptions& options,
