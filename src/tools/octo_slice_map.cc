@@ -193,6 +193,8 @@ struct Intake {
   std::size_t bad_lines = 0;
   std::string end_error;  // a log that ended early (truncated gzip)
   std::size_t cloud_preparer_bytes = 0;  // the pipeline's windows for preparing clouds
+  // With --floor-base-frame: clouds tf could not place that frame for (mapped without a ground point).
+  std::size_t clouds_without_ground = 0;
 };
 
 // Feeds scans and clouds to the session, holding out every Nth scan and reporting refused ones.
@@ -304,7 +306,10 @@ int mapBag(const Args& args, Feeder* feed, osm::tools::ProgressBar* bar, Intake*
   osm::tools::BagHandlers handlers;
   std::size_t bag_scans = 0;
   handlers.scan = [&](const osm::Scan& scan) { feed->scan(scan, args.bag + ": scan " + std::to_string(bag_scans++)); };
-  handlers.cloud = [&](const osm::DeferredCloud& cloud) { feed->cloud(cloud); };
+  handlers.cloud = [&](const osm::DeferredCloud& cloud) {
+    if (!args.floor_base_frame.empty() && !cloud.ground) intake->clouds_without_ground++;
+    feed->cloud(cloud);
+  };
   std::string error;
   if (!osm::tools::readBag(
           args.bag, {args.scan_topics, args.cloud_topics}, args.fixed_frame, handlers, &intake->skipped_scans, &error,
@@ -313,6 +318,10 @@ int mapBag(const Args& args, Feeder* feed, osm::tools::ProgressBar* bar, Intake*
     return 1;
   }
   bar->finish();
+  if (intake->clouds_without_ground > 0) {
+    std::cerr << "octo_slice_map: " << intake->clouds_without_ground << " clouds mapped without a ground point (tf could not place "
+              << args.floor_base_frame << " at their stamps): their floor was found from their points alone\n";
+  }
   return 0;
 }
 
@@ -379,6 +388,7 @@ std::string report(const Args& args, osm::Mapper& mapper, const Intake& intake, 
     json << ", \"clouds\": " << stats.clouds_inserted << ", \"ms_per_cloud\": "
          << (stats.clouds_inserted ? 1000.0 * intake.cloud_seconds / stats.clouds_inserted : 0.0)
          << ", \"cloud_points\": " << jsonReadings(stats.cloud_points);
+    if (!args.floor_base_frame.empty()) json << ", \"clouds_without_ground\": " << intake.clouds_without_ground;
   }
   json << ", \"flush_ms\": " << costs.flush_ms << ", \"snapshot_ms\": " << costs.snapshot_ms
        << ", \"snapshot_leaves\": " << costs.snapshot_leaves
