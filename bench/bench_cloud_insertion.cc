@@ -2,7 +2,7 @@
 // methods, in one process.
 //
 //   bench_cloud_insertion [--frames N] [--rounds R] [--resolution M] [--ours-only] [--scene desk|room]
-//                         [--no-floor] [--no-flying-filter] [--stages N]
+//                         [--no-floor] [--no-flying-filter] [--shared-free-run N] [--stages N]
 //
 // Frames come from the simulated Kinect-class camera (sim/depth_camera.h: 640 x 480, 57 x 43 deg,
 // 0.5-4.5 m, the Kinect's depth noise) in the simulated office room, in two scenes: "desk" (the
@@ -29,6 +29,8 @@
 // class), and a JSON line (exit status 1 if a pipelined map differs). --ours-only: only ours, 20
 // times, and the pipelined runs (for profiling). --no-floor, --no-flying-filter: the floor's and the
 // flying-pixel filter's options off (floor_find, cloud_flying_pixel_filter), to see what they cost.
+// --shared-free-run N: ours and pipelined with cloud_shared_free_run N (default the option's), the
+// whole rays' comparison showing what it leaves unknown.
 // --stages N: instead, the least of N runs of the conversion (without and with the flying-pixel
 // filter) and of the end-voxel grouping of each scene's first frame, and each frame's least of
 // N / 20 passes of the whole frame on one thread (conversion, preparing, applying).
@@ -278,6 +280,7 @@ int main(int argc, char** argv) {
   std::string only_scene;  // "" = both
   bool find_floor = true, flying_filter = true;  // off: what the two cost (floor_find, cloud_flying_pixel_filter)
   int stage_runs = 0;  // --stages N: only the stages' least times
+  int shared_free_run = -1;  // --shared-free-run N (-1: the option's default)
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "--frames" && i + 1 < argc) frames_per_scene = std::max(1, std::atoi(argv[++i]));
@@ -288,10 +291,11 @@ int main(int argc, char** argv) {
     else if (arg == "--no-floor") find_floor = false;
     else if (arg == "--no-flying-filter") flying_filter = false;
     else if (arg == "--stages" && i + 1 < argc) stage_runs = std::max(1, std::atoi(argv[++i]));
+    else if (arg == "--shared-free-run" && i + 1 < argc) shared_free_run = std::max(0, std::atoi(argv[++i]));
     else {
       std::fprintf(stderr,
                    "usage: bench_cloud_insertion [--frames N] [--rounds R] [--resolution M] [--ours-only] [--scene desk|room] "
-                   "[--no-floor] [--no-flying-filter] [--stages N]\n");
+                   "[--no-floor] [--no-flying-filter] [--shared-free-run N] [--stages N]\n");
       return 2;
     }
   }
@@ -315,6 +319,7 @@ int main(int argc, char** argv) {
   options.slice.max_z = 0.80;
   options.floor.find = find_floor;
   options.insert.cloud_flying_pixels.enabled = flying_filter;
+  if (shared_free_run >= 0) options.insert.cloud_shared_free_run = shared_free_run;
   if (stage_runs > 0) {
     std::printf("== the first stages of each scene's first frame, one thread\n");
     for (const Scene& sc : scenes) printStages(sc.name, sc.frames.front(), resolution, stage_runs);
