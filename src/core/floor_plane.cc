@@ -38,8 +38,8 @@ std::optional<FloorPlane> fitPlane(const Cloud::ConstPtr& cloud, const std::vect
   // PCL stops once a plane is found with 99 % confidence for the share of inliers it has; the
   // cap matters only where that share is small, as in a frame without a seed, whose candidates
   // are the whole view. Capped at 100, about one such frame in 300 that does see a floor missed
-  // it (the same frames with their points in other orders); a seeded frame stops within a few
-  // dozen draws either way.
+  // it (the same frames with their points in other orders); a seeded frame stops before either
+  // cap (the room bench's frames take the same instructions with both).
   ransac.setMaxIterations(1000);
   if (!ransac.computeModel()) return std::nullopt;
   std::vector<int> inliers;
