@@ -35,13 +35,11 @@ std::optional<FloorPlane> fitPlane(const Cloud::ConstPtr& cloud, const std::vect
   model->setAxis(Eigen::Vector3f::UnitZ());
   model->setEpsAngle(options.max_tilt);
   pcl::RandomSampleConsensus<pcl::PointXYZ> ransac(model, options.inlier_distance);
-  // PCL stops once a plane is found with 99 % confidence for the share of inliers it has; the
-  // cap binds where that share is small: a frame without a seed, whose candidates are the whole
-  // view, and a frame without a floor, which always draws up to it. Capped at 100, about one
-  // first frame in 300 that does see a floor missed it (the same frames with their points in
-  // other orders; 200: one in 640; 300: none); each 100 draws cost a frame without a floor
-  // 0.01-0.09 ms (a wall alone; clutter). A seeded frame stops before either cap (the room
-  // bench's frames take the same instructions with both).
+  // PCL stops once a plane is found with 99 % confidence for the share of inliers it has, so the
+  // cap binds only where that share is small: in a frame without a seed, whose candidates are the
+  // whole view (too low a cap misses a floor that is there), and in a frame without a floor, which
+  // always draws up to it (every draw costs such a frame). The measurements behind 300 are in
+  // doc/benchmarks.md ("The plane fit's draws").
   ransac.setMaxIterations(300);
   if (!ransac.computeModel()) return std::nullopt;
   std::vector<int> inliers;
