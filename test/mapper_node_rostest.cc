@@ -226,7 +226,9 @@ TEST_F(MapperNodeTest, ResetClearsTheMap) {
   ASSERT_TRUE(waitFor([this] { return map_ && map_->data.empty(); }, 20.0)) << "map not cleared";
   // And it maps again afterwards.
   scan_pub_.publish(scan([](double a) { return wallAt(kWallAhead, a); }));
-  ASSERT_TRUE(waitFor([this] { return cellAt(2.11, 0.0) > 50; }, 20.0));
+  // On failure, the map as it stands tells a scan that never went in from a map not sent again.
+  ASSERT_TRUE(waitFor([this] { return cellAt(2.11, 0.0) > 50; }, 20.0))
+      << "~incremental_map: " << (map_ ? map_->data.size() : 0u) << " cells, the wall's cell " << cellAt(2.11, 0.0);
 }
 
 // ~clear_box makes a box unknown again, as octomap_server's clear_bbx; the map outside it stays
