@@ -1,7 +1,5 @@
 #include "ros/mapper_node.h"
 
-#include <tf2_eigen/tf2_eigen.h>
-
 #include <cstdio>
 #include <type_traits>
 
@@ -9,6 +7,7 @@
 #include "core/internal/thread_cpu_time.h"
 #include "ros/laser_scan_conversion.h"
 #include "ros/point_cloud_conversion.h"
+#include "ros/tf_lookup.h"
 
 namespace octo_slice_mapper {
 namespace ros_adapter {
@@ -289,25 +288,22 @@ void MapperNode::clearTfIfFromTheFuture(const std_msgs::Header& header, tf2_ros:
 }
 
 bool MapperNode::sensorPose(const std_msgs::Header& header, Eigen::Isometry3d* pose, std::string* why) {
-  try {
-    *pose = tf2::transformToEigen(tf_buffer_.lookupTransform(options_.frame_id, header.frame_id, header.stamp));
-    return true;
-  } catch (const tf2::TransformException& e) {
-    if (why) *why = e.what();
-    return false;
-  }
+  const std::optional<Eigen::Isometry3d> found =
+      lookupPose(tf_buffer_, options_.frame_id, header.frame_id, header.stamp, why);
+  if (found) *pose = *found;
+  return found.has_value();
 }
 
 std::optional<Eigen::Vector3d> MapperNode::groundAt(const ros::Time& stamp) {
-  try {
-    return tf2::transformToEigen(tf_buffer_.lookupTransform(options_.frame_id, options_.floor_base_frame, stamp))
-        .translation();
-  } catch (const tf2::TransformException& e) {
-    // The frame's floor is then found from its points alone: nothing is lost.
-    ROS_WARN_THROTTLE(5.0, "no transform %s <- %s (floor_base_frame) for a point cloud: its floor is found from its "
-                      "points alone: %s", options_.frame_id.c_str(), options_.floor_base_frame.c_str(), e.what());
-    return std::nullopt;
+  std::string why;
+  if (const std::optional<Eigen::Isometry3d> base =
+          lookupPose(tf_buffer_, options_.frame_id, options_.floor_base_frame, stamp, &why)) {
+    return base->translation();
   }
+  // The frame's floor is then found from its points alone: nothing is lost.
+  ROS_WARN_THROTTLE(5.0, "no transform %s <- %s (floor_base_frame) for a point cloud: its floor is found from its "
+                    "points alone: %s", options_.frame_id.c_str(), options_.floor_base_frame.c_str(), why.c_str());
+  return std::nullopt;
 }
 
 void MapperNode::checkTimeJump(const ros::Time& stamp) {

@@ -6,7 +6,6 @@
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2/buffer_core.h>
 #include <tf2/exceptions.h>
-#include <tf2_eigen/tf2_eigen.h>
 #include <tf2_msgs/TFMessage.h>
 
 #include <deque>
@@ -15,6 +14,7 @@
 
 #include "ros/laser_scan_conversion.h"
 #include "ros/point_cloud_conversion.h"
+#include "ros/tf_lookup.h"
 
 namespace octo_slice_mapper {
 namespace tools {
@@ -112,13 +112,8 @@ bool readBag(const std::string& path, const BagTopics& topics, const std::string
         Held& h = held.front();
         const bool ready = buffer.canTransform(fixed_frame, h.frame, h.stamp);
         if (!ready && !end && now < h.recorded + kTfWait && held_bytes <= kMaxHeldBytes) return;
-        std::optional<Eigen::Isometry3d> pose;
-        if (ready) {
-          try {
-            pose = tf2::transformToEigen(buffer.lookupTransform(fixed_frame, h.frame, h.stamp));
-          } catch (const tf2::TransformException&) {
-          }
-        }
+        const std::optional<Eigen::Isometry3d> pose =
+            ready ? ros_adapter::lookupPose(buffer, fixed_frame, h.frame, h.stamp) : std::nullopt;
         h.place(pose ? &*pose : nullptr);
         held_bytes -= h.bytes;
         held.pop_front();
@@ -156,12 +151,10 @@ bool readBag(const std::string& path, const BagTopics& topics, const std::string
             [&](const sensor_msgs::PointCloud2::ConstPtr& msg, const Eigen::Isometry3d& pose, DeferredCloud* out) {
               const ros_adapter::ScanRejection rejection = ros_adapter::toDeferredCloud(msg, pose, out);
               if (!rejection.rejected() && !floor_base_frame.empty()) {
-                try {
-                  out->ground = tf2::transformToEigen(
-                                    buffer.lookupTransform(fixed_frame, floor_base_frame, msg->header.stamp))
-                                    .translation();
-                } catch (const tf2::TransformException&) {
-                  // Mapped all the same, its floor found from its points alone (no ground point).
+                // None where tf cannot place it: mapped all the same, its floor found from its points alone.
+                if (const std::optional<Eigen::Isometry3d> base =
+                        ros_adapter::lookupPose(buffer, fixed_frame, floor_base_frame, msg->header.stamp)) {
+                  out->ground = base->translation();
                 }
               }
               return rejection;
