@@ -410,28 +410,27 @@ int main(int argc, char** argv) {
       for (const Variant& v : issueVariants()) {
         report("sim office", "robot, " + v.name, mapAndScore(robot, v.world, truth, true, "sim robot " + v.name), 0.0);
       }
+      // The platform and the edge rows without and with the robot's base_footprint as each frame's
+      // ground point (floor_base_frame); each scene's frames and truth made once.
       const osm::sim::BoxScene platform = officeWithPlatform();
+      const std::vector<Frame> to_platform = robotToPlatform(platform, sim_frames, 7);
+      const osm::GridImage platform_truth = simTruth(platform);
       report("sim office", "robot up to a platform",
-             mapAndScore(robotToPlatform(platform, sim_frames, 7), Eigen::Isometry3d::Identity(), simTruth(platform), true,
-                         "sim robot platform"),
-             0.0);
-      // The same with the robot's base_footprint as each frame's ground point (floor_base_frame).
+             mapAndScore(to_platform, Eigen::Isometry3d::Identity(), platform_truth, true, "sim robot platform"), 0.0);
       for (const Variant& v : issueVariants()) {
         report("sim office", "robot, " + v.name + ", base",
                mapAndScore(robot, v.world, truth, true, "sim robot base " + v.name, 0.35), 0.0);
       }
       report("sim office", "robot up to a platform, base",
-             mapAndScore(robotToPlatform(platform, sim_frames, 7), Eigen::Isometry3d::Identity(), simTruth(platform), true,
-                         "sim robot platform base", 0.35),
+             mapAndScore(to_platform, Eigen::Isometry3d::Identity(), platform_truth, true, "sim robot platform base", 0.35),
              0.0);
       const osm::sim::BoxScene edge = officeAtAnEdge();
       const std::vector<Frame> to_edge = robotToTheEdge(edge, sim_frames, 7);
+      const osm::GridImage edge_truth = simTruth(edge, floorAtTheEdge);
       report("sim office", "robot up to an edge",
-             mapAndScore(to_edge, Eigen::Isometry3d::Identity(), simTruth(edge, floorAtTheEdge), true, "sim robot edge"), 0.0);
+             mapAndScore(to_edge, Eigen::Isometry3d::Identity(), edge_truth, true, "sim robot edge"), 0.0);
       report("sim office", "robot up to an edge, base",
-             mapAndScore(to_edge, Eigen::Isometry3d::Identity(), simTruth(edge, floorAtTheEdge), true,
-                         "sim robot edge base", 0.35),
-             0.0);
+             mapAndScore(to_edge, Eigen::Isometry3d::Identity(), edge_truth, true, "sim robot edge base", 0.35), 0.0);
     }
     report("sim office", "ramp", mapAndScore(simFrames(ramp, sim_frames, 0.0, 7), Eigen::Isometry3d::Identity(),
                                             simTruth(ramp), true, "sim ramp"), 0.0);
