@@ -16,7 +16,9 @@
 //               [--held-out] [--reference-range M] [--reference-min-z M] [--json] [--pictures DIR]
 // --assumed-floor: the rules of a map without floor finding (the floor at z = 0, no noise model,
 // no flying-pixel filter), for comparison in the same run. ms/frame: one thread, conversion,
-// flying-pixel test and insertion (its share: the last column); ref ms: OctoMap's insertion.
+// flying-pixel test and insertion (its share: the column "ms"); ref ms: OctoMap's insertion.
+// phantom (the simulator's office rows, the ramp and the flying-pixel rows): occupied voxels of the
+// octree more than 0.15 m from every surface of the scene (phantomVoxels).
 // --held-out: four more frames of reference (variants()) and a robot's camera in the simulator
 // (0.35 m up, pitched 0.10 rad), a check that the defaults carry over; that camera driving
 // straight up to a platform 8 cm high across the room's far end (robotToPlatform), and up to an
@@ -102,15 +104,46 @@ struct Outcome {
   osm::FloorStatus floor;
   std::uint64_t flying = 0;
   double flying_ms = 0.0;  // of ms_per_frame: the flying-pixel filter
+  long long phantoms = -1;  // occupied voxels away from every surface (phantomVoxels); -1: not measured
 };
+
+// How far a point is from the surface of `box`, from inside or outside.
+double distanceToSurface(const osm::sim::Box& box, const Eigen::Vector3d& p) {
+  const Eigen::Vector3d outside = (box.min - p).cwiseMax(p - box.max).cwiseMax(0.0);
+  if (outside.squaredNorm() > 0.0) return outside.norm();
+  return (p - box.min).cwiseMin(box.max - p).minCoeff();
+}
+
+// Phantom voxels: occupied voxels of `tree` whose centre lies farther than `margin` from every
+// surface of `scene` (the room's faces, the ramp, the solids), the map being `world` of the
+// scene's frame. Mixed pixels float between a depth edge and what lies behind it; a real
+// surface's voxels lie within its depth noise (three sigmas: 0.1 m at 4.5 m) and half a voxel's
+// diagonal of it.
+long long phantomVoxels(const octomap::OcTree& tree, const osm::sim::BoxScene& scene, const Eigen::Isometry3d& world,
+                        double margin) {
+  const Eigen::Isometry3d to_scene = world.inverse();
+  long long count = 0;
+  for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it) {
+    if (!tree.isNodeOccupied(*it)) continue;
+    const Eigen::Vector3d p = to_scene * Eigen::Vector3d(it.getX(), it.getY(), it.getZ());
+    double nearest = distanceToSurface(scene.room, p);
+    if (scene.ramp) nearest = std::min(nearest, std::abs(p.z() - scene.floorAt(p.x())));
+    for (const osm::sim::Box& solid : scene.solids) nearest = std::min(nearest, distanceToSurface(solid, p));
+    // A voxel holds a cube: the cells of a coarser leaf are counted one by one.
+    if (nearest > margin) count += 1LL << (3 * (tree.getTreeDepth() - it.getDepth()));
+  }
+  return count;
+}
 
 // Our navigation slice of `frames` seen through `world`, scored against `truth`.
 bool assumed_floor = false;  // --assumed-floor: the rules without floor finding (z = 0, fixed band, no noise model)
 
 // `ground_below` > 0: each frame's ground point (SensorCloud::ground, a robot's base_footprint) lies
 // that far below the camera in the world.
+// `scene`: the simulated scene, for phantomVoxels.
 Outcome mapAndScore(const std::vector<Frame>& frames, const Eigen::Isometry3d& world, const osm::GridImage& truth,
-                    bool filter_flying, const std::string& picture = "", double ground_below = 0.0) {
+                    bool filter_flying, const std::string& picture = "", double ground_below = 0.0,
+                    const osm::sim::BoxScene* scene = nullptr) {
   osm::MapperOptions options;
   options.keep_scans = false;
   if (assumed_floor) {
@@ -146,6 +179,7 @@ Outcome mapAndScore(const std::vector<Frame>& frames, const Eigen::Isometry3d& w
   out.ms_per_frame = osm::bench::median(ms);
   out.flying_ms = osm::bench::median(flying_ms);
   out.floor = mapper.floor().status();
+  if (scene) out.phantoms = phantomVoxels(mapper.tree(), *scene, world, 0.15);
   const osm::GridImage slice = osm::gridImageOf(mapper.slice());
   out.score = osm::scoreOccupancy(slice, truth, 1);
   std::string error;
@@ -337,17 +371,19 @@ bool realFrames(const std::string& folder, const osm::tools::DepthIntrinsics& in
 std::string json;
 
 void report(const std::string& data, const std::string& variant, const Outcome& o, double reference_ms) {
-  std::printf("  %-22s %-24s %9.3f %7.3f %8zu %8zu %9.2f %9.2f %5llu/%-5llu %8.3f %9llu %6.2f\n", data.c_str(),
+  const std::string phantoms = o.phantoms < 0 ? "-" : std::to_string(o.phantoms);
+  std::printf("  %-22s %-24s %9.3f %7.3f %8zu %8zu %9.2f %9.2f %5llu/%-5llu %8.3f %9llu %6.2f %8s\n", data.c_str(),
               variant.c_str(), o.score.precision, o.score.recall, o.score.map_occupied, o.score.truth_observed,
               o.ms_per_frame, reference_ms, (unsigned long long)o.floor.frames_found,
               (unsigned long long)(o.floor.frames_found + o.floor.frames_without), o.floor.height,
-              (unsigned long long)o.flying, o.flying_ms);
+              (unsigned long long)o.flying, o.flying_ms, phantoms.c_str());
   char line[512];
   std::snprintf(line, sizeof line,
                 "%s{\"data\": \"%s\", \"variant\": \"%s\", \"precision\": %.4f, \"recall\": %.4f, \"ms_per_frame\": %.3f, "
-                "\"reference_ms_per_frame\": %.3f, \"floor_frames\": %llu, \"flying_pixels\": %llu}",
+                "\"reference_ms_per_frame\": %.3f, \"floor_frames\": %llu, \"flying_pixels\": %llu, \"phantom_voxels\": %lld}",
                 json.empty() ? "" : ", ", data.c_str(), variant.c_str(), o.score.precision, o.score.recall,
-                o.ms_per_frame, reference_ms, (unsigned long long)o.floor.frames_found, (unsigned long long)o.flying);
+                o.ms_per_frame, reference_ms, (unsigned long long)o.floor.frames_found, (unsigned long long)o.flying,
+                o.phantoms);
   json += line;
 }
 
@@ -398,13 +434,15 @@ int main(int argc, char** argv) {
     }
   }
   std::printf("== the navigation slice (0.05-0.80 m above the floor found), 0.05 m, one cell of tolerance\n");
-  std::printf("  %-22s %-24s %9s %7s %8s %8s %9s %9s %11s %8s %9s %6s\n", "data", "variant", "precision", "recall",
-              "occupied", "truth", "ms/frame", "ref ms", "floor found", "floor z", "flying", "ms");
+  std::printf("  %-22s %-24s %9s %7s %8s %8s %9s %9s %11s %8s %9s %6s %8s\n", "data", "variant", "precision", "recall",
+              "occupied", "truth", "ms/frame", "ref ms", "floor found", "floor z", "flying", "ms", "phantom");
   if (simulated) {
     const osm::sim::BoxScene office = osm::sim::BoxScene::officeRoom(), ramp = osm::sim::BoxScene::officeRoomWithRamp();
     const std::vector<Frame> frames = simFrames(office, sim_frames, 0.0, 7);
     const osm::GridImage truth = simTruth(office);
-    for (const Variant& v : variants()) report("sim office", v.name, mapAndScore(frames, v.world, truth, true, "sim " + v.name), 0.0);
+    for (const Variant& v : variants()) {
+      report("sim office", v.name, mapAndScore(frames, v.world, truth, true, "sim " + v.name, 0.0, &office), 0.0);
+    }
     if (held_out) {  // a robot's camera, 0.35 m up, in the issue's three frames of reference
       const std::vector<Frame> robot = simFrames(office, sim_frames, 0.0, 7, 0.35, 0.10);
       for (const Variant& v : issueVariants()) {
@@ -433,10 +471,12 @@ int main(int argc, char** argv) {
              mapAndScore(to_edge, Eigen::Isometry3d::Identity(), edge_truth, true, "sim robot edge base", 0.35), 0.0);
     }
     report("sim office", "ramp", mapAndScore(simFrames(ramp, sim_frames, 0.0, 7), Eigen::Isometry3d::Identity(),
-                                            simTruth(ramp), true, "sim ramp"), 0.0);
+                                            simTruth(ramp), true, "sim ramp", 0.0, &ramp), 0.0);
     const std::vector<Frame> flying = simFrames(office, sim_frames, 0.5, 7);
-    report("sim office", "flying pixels", mapAndScore(flying, Eigen::Isometry3d::Identity(), truth, true, "sim flying"), 0.0);
-    report("sim office", "flying, unfiltered", mapAndScore(flying, Eigen::Isometry3d::Identity(), truth, false, "sim flying unfiltered"), 0.0);
+    report("sim office", "flying pixels",
+           mapAndScore(flying, Eigen::Isometry3d::Identity(), truth, true, "sim flying", 0.0, &office), 0.0);
+    report("sim office", "flying, unfiltered",
+           mapAndScore(flying, Eigen::Isometry3d::Identity(), truth, false, "sim flying unfiltered", 0.0, &office), 0.0);
   }
   if (real) {
     const char* env = std::getenv("OSM_DATA_DIR");
