@@ -17,8 +17,9 @@
 // --assumed-floor: the rules of a map without floor finding (the floor at z = 0, no noise model,
 // no flying-pixel filter), for comparison in the same run. ms/frame: one thread, conversion,
 // flying-pixel test and insertion (its share: the column "ms"); ref ms: OctoMap's insertion.
-// phantom (the simulator's office rows, the ramp and the flying-pixel rows): occupied voxels of the
-// octree more than 0.15 m from every surface of the scene (phantomVoxels).
+// phantom (the hand-held camera's office rows in every frame of reference, the ramp and the
+// flying-pixel rows): occupied voxels of the octree more than 0.15 m from every surface of the
+// scene (phantomVoxels); "-" elsewhere.
 // --held-out: four more frames of reference (variants()) and a robot's camera in the simulator
 // (0.35 m up, pitched 0.10 rad), a check that the defaults carry over; that camera driving
 // straight up to a platform 8 cm high across the room's far end (robotToPlatform), and up to an
