@@ -115,23 +115,21 @@ double distanceToSurface(const osm::sim::Box& box, const Eigen::Vector3d& p) {
   return (p - box.min).cwiseMin(box.max - p).minCoeff();
 }
 
-// Phantom voxels: occupied voxels of `tree` whose centre lies farther than `margin` from every
-// surface of `scene` (the room's faces, the ramp, the solids), the map being `world` of the
-// scene's frame. Mixed pixels float between a depth edge and what lies behind it; a real
-// surface's voxels lie within its depth noise (three sigmas: 0.1 m at 4.5 m) and half a voxel's
-// diagonal of it.
+// Phantom voxels: occupied voxels of `tree` (occupiedVoxels: a pruned node's voxels one by one)
+// whose centre lies farther than `margin` from every surface of `scene` (the room's faces, the
+// ramp, the solids), the map being `world` of the scene's frame. Mixed pixels float between a
+// depth edge and what lies behind it; a real surface's voxels lie within its depth noise (three
+// sigmas: 0.1 m at 4.5 m) and half a voxel's diagonal of it.
 long long phantomVoxels(const octomap::OcTree& tree, const osm::sim::BoxScene& scene, const Eigen::Isometry3d& world,
                         double margin) {
   const Eigen::Isometry3d to_scene = world.inverse();
   long long count = 0;
-  for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it) {
-    if (!tree.isNodeOccupied(*it)) continue;
-    const Eigen::Vector3d p = to_scene * Eigen::Vector3d(it.getX(), it.getY(), it.getZ());
+  for (const osm::OccupiedVoxel& v : osm::occupiedVoxels(tree)) {
+    const Eigen::Vector3d p = to_scene * Eigen::Vector3d(v.x, v.y, v.z);
     double nearest = distanceToSurface(scene.room, p);
     if (scene.ramp) nearest = std::min(nearest, std::abs(p.z() - scene.floorAt(p.x())));
     for (const osm::sim::Box& solid : scene.solids) nearest = std::min(nearest, distanceToSurface(solid, p));
-    // A voxel holds a cube: the cells of a coarser leaf are counted one by one.
-    if (nearest > margin) count += 1LL << (3 * (tree.getTreeDepth() - it.getDepth()));
+    count += nearest > margin;
   }
   return count;
 }
