@@ -16,6 +16,7 @@
 #include "carmen_bag_writer.h"
 #include "planar_transform.h"
 #include "ros/point_cloud_conversion.h"
+#include "ros/tf_lookup.h"
 #include "test_helpers.h"
 
 using namespace octo_slice_mapper;
@@ -194,9 +195,81 @@ TEST(BagClouds, CloudsComeThroughTheBagsTfInOrderWithTheScans) {
   EXPECT_EQ(clouds.size(), 7u);
   EXPECT_EQ(skipped, skipped_without_base) << "clouds mapped without a ground point are no skipped ones";
   for (const SensorCloud& c : clouds) EXPECT_FALSE(c.ground);
+  // "auto" asks for base_footprint, which this bag's tf has not (a hand-held camera's): none.
+  skipped.clear();
+  clouds.clear();
+  ASSERT_TRUE(tools::readBag(path, {{}, {"/camera/points"}}, "odom", handlers, &skipped, &error, {}, "auto"));
+  EXPECT_EQ(clouds.size(), 7u);
+  EXPECT_EQ(skipped, skipped_without_base);
+  for (const SensorCloud& c : clouds) EXPECT_FALSE(c.ground);
   EXPECT_FALSE(tools::readBag(path, {{}, {"/no/such/topic"}}, "odom", handlers, &skipped, &error));
   EXPECT_NE(error.find("no messages on topic '/no/such/topic'"), std::string::npos) << error;
   std::system(("rm -rf " + dir).c_str());
+}
+
+// floor_base_frame "auto" on a robot's bag (REP 120: odom -> base_footprint -> base_link): each
+// cloud's ground point is base_footprint's origin, on the floor under the robot, not base_link's;
+// "" asks for none.
+TEST(BagClouds, AutoFloorBaseIsTheRobotsBaseFootprint) {
+  char tmpl[] = "/tmp/osm_bag_auto_base_XXXXXX";
+  const std::string dir = ::mkdtemp(tmpl);
+  const std::string path = dir + "/robot.bag";
+  {
+    rosbag::Bag bag(path, rosbag::bagmode::Write);
+    tf2_msgs::TFMessage statics;
+    statics.transforms.push_back(tools::planarTransform("base_footprint", "base_link", ros::Time(100.0), 0.0, 0.0, 0.1, 0.0));
+    statics.transforms.push_back(tools::planarTransform("base_link", "camera", ros::Time(100.0), 0.1, 0.0, 0.3, 0.0));
+    bag.write("/tf_static", ros::Time(100.0), statics);
+    for (int k = 0; k < 3; ++k) {
+      const double t = 101.0 + k;
+      tf2_msgs::TFMessage tf;
+      tf.transforms.push_back(tools::planarTransform("odom", "base_footprint", ros::Time(t), 1.0 * k, 2.0, 0.0, 0.0));
+      bag.write("/tf", ros::Time(t), tf);
+      sensor_msgs::PointCloud2 c = ros_adapter::organizedCloud({Eigen::Vector3f(1.0f, 0.0f, 0.0f)}, 1, 1, "camera");
+      c.header.stamp = ros::Time(t);
+      bag.write("/camera/points", ros::Time(t + 0.01), c);
+    }
+  }
+  std::vector<SensorCloud> clouds;
+  tools::BagHandlers handlers;
+  handlers.cloud = [&](const DeferredCloud& c) { clouds.push_back(c.made(FlyingPixelOptions())); };
+  std::map<std::string, std::size_t> skipped;
+  std::string error;
+  ASSERT_TRUE(tools::readBag(path, {{}, {"camera/points"}}, "odom", handlers, &skipped, &error, {}, "auto")) << error;
+  ASSERT_EQ(clouds.size(), 3u);
+  for (int k = 0; k < 3; ++k) {
+    ASSERT_TRUE(clouds[std::size_t(k)].ground) << k;
+    EXPECT_TRUE(clouds[std::size_t(k)].ground->isApprox(Eigen::Vector3d(1.0 * k, 2.0, 0.0), 1e-9))
+        << clouds[std::size_t(k)].ground->transpose();
+    EXPECT_NEAR(clouds[std::size_t(k)].origin.z(), 0.4, 1e-9) << "the camera 0.4 m above the floor";
+  }
+  clouds.clear();
+  ASSERT_TRUE(tools::readBag(path, {{}, {"camera/points"}}, "odom", handlers, &skipped, &error, {}, "")) << error;
+  ASSERT_EQ(clouds.size(), 3u);
+  for (const SensorCloud& c : clouds) EXPECT_FALSE(c.ground) << "\"\": no ground point";
+  std::system(("rm -rf " + dir).c_str());
+}
+
+// The setting read: "auto" is base_footprint, asked for quietly; a name is that frame, required.
+TEST(FloorBase, SettingsAndTheGroundPoint) {
+  EXPECT_EQ(ros_adapter::floorBaseOf("auto").frame, "base_footprint");
+  EXPECT_FALSE(ros_adapter::floorBaseOf("auto").required);
+  EXPECT_EQ(ros_adapter::floorBaseOf("").frame, "");
+  EXPECT_FALSE(ros_adapter::floorBaseOf("").required);
+  EXPECT_EQ(ros_adapter::floorBaseOf("base_raised").frame, "base_raised");
+  EXPECT_TRUE(ros_adapter::floorBaseOf("base_raised").required);
+  tf2::BufferCore tf;
+  const ros::Time t(50.0);
+  std::string why;
+  EXPECT_FALSE(ros_adapter::groundPoint(tf, "odom", ros_adapter::floorBaseOf("auto"), t, &why));
+  EXPECT_TRUE(why.empty()) << "auto without base_footprint in tf is no failure: " << why;
+  EXPECT_FALSE(ros_adapter::groundPoint(tf, "odom", ros_adapter::floorBaseOf("base_footprint"), t, &why));
+  EXPECT_FALSE(why.empty()) << "a named frame tf cannot place says why";
+  tf.setTransform(tools::planarTransform("odom", "base_footprint", t, 3.0, -1.0, 0.0, 0.5), "test");
+  const auto ground = ros_adapter::groundPoint(tf, "odom", ros_adapter::floorBaseOf("auto"), t);
+  ASSERT_TRUE(ground);
+  EXPECT_TRUE(ground->isApprox(Eigen::Vector3d(3.0, -1.0, 0.0), 1e-12)) << ground->transpose();
+  EXPECT_FALSE(ros_adapter::groundPoint(tf, "odom", ros_adapter::floorBaseOf(""), t));
 }
 
 }  // namespace

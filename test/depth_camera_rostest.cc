@@ -32,11 +32,12 @@ using octo_slice_mapper::test_support::waitFor;
 TEST(DepthCamera, TheNavigationBandShowsTheTableTopAndTheOverhangTheLidarBandDoesNot) {
   ros::NodeHandle nh;
   nav_msgs::OccupancyGrid::ConstPtr nav, lidar;
-  std::map<std::string, double> diagnostics, raised;
+  std::map<std::string, double> diagnostics, raised, lidar_band;
   ros::Subscriber diag_sub = nh.subscribe<diagnostic_msgs::DiagnosticArray>("/diagnostics", 20, [&](const auto& msg) {
     for (const auto& status : msg->status) {
       std::map<std::string, double>* values = status.name.rfind("/nav_mapper:", 0) == 0           ? &diagnostics
                                                : status.name.rfind("/raised_base_mapper:", 0) == 0 ? &raised
+                                               : status.name.rfind("/lidar_band_mapper:", 0) == 0  ? &lidar_band
                                                                                                    : nullptr;
       if (!values) continue;
       for (const auto& kv : status.values) (*values)[kv.key] = std::atof(kv.value.c_str());
@@ -163,6 +164,12 @@ TEST(DepthCamera, TheNavigationBandShowsTheTableTopAndTheOverhangTheLidarBandDoe
   ASSERT_TRUE(waitFor([&] { return raised["clouds_inserted"] >= sent && raised["floor_frames_without"] >= sent; }, 30.0))
       << "clouds inserted " << raised["clouds_inserted"] << ", frames without a floor " << raised["floor_frames_without"];
   EXPECT_EQ(raised["floor_frames_found"], 0.0);
+  EXPECT_EQ(raised["floor_ground_points"], double(sent));
+  // floor_base_frame's default ("auto") takes the robot's base_footprint from tf: every frame the
+  // navigation mapper inserted came with it; the lidar-band mapper asks for none ("").
+  EXPECT_EQ(diagnostics["floor_ground_points"], double(sent));
+  ASSERT_TRUE(waitFor([&] { return lidar_band["clouds_inserted"] >= sent; }, 30.0)) << lidar_band["clouds_inserted"];
+  EXPECT_EQ(lidar_band["floor_ground_points"], 0.0);
 }
 
 int main(int argc, char** argv) {

@@ -114,7 +114,9 @@ SaveOutcome MappingSession::save(const std::string& prefix, bool with_global_pas
   {
     Loan loan(this);
     if (with_global_pass && snapshot.scans.empty()) {
-      out.note = "global pass skipped: no kept scans (keep_scans is false, or nothing inserted): the incremental map saved";
+      out.note =
+          "global pass skipped: it works on laser scans, and none are kept (depth clouds only, keep_scans false, "
+          "or nothing inserted): the incremental map saved";
     } else if (with_global_pass) {
       out.optimized = optimizeScans(snapshot.scans, pass_options, resolution,
                                     options_.warm_start ? &snapshot.slice : nullptr, progress);

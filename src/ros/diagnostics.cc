@@ -109,6 +109,7 @@ diagnostic_msgs::DiagnosticArray toDiagnostics(const NodeCounters& c, const Node
     add("floor_frames_found", std::to_string(c.floor_frames_found));
     add("floor_frames_without", std::to_string(c.floor_frames_without));
     add("floor_cells", std::to_string(c.floor_cells));
+    add("floor_ground_points", std::to_string(c.floor_ground_points));
   }
   add("online_passes", std::to_string(c.online_passes));
   std::snprintf(ms, sizeof(ms), "%.3f", c.online_pass_seconds);

@@ -58,6 +58,7 @@ struct NodeCounters {
   double floor_height = 0.0, floor_tilt = 0.0;
   std::uint64_t floor_frames_found = 0, floor_frames_without = 0;
   std::size_t floor_cells = 0;
+  std::uint64_t floor_ground_points = 0;  // clouds that came with a ground point (floor_base_frame)
   std::uint64_t skippedTotal() const;
 };
 

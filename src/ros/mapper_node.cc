@@ -295,14 +295,16 @@ bool MapperNode::sensorPose(const std_msgs::Header& header, Eigen::Isometry3d* p
 }
 
 std::optional<Eigen::Vector3d> MapperNode::groundAt(const ros::Time& stamp) {
+  const FloorBase base = floorBaseOf(options_.floor_base_frame);
   std::string why;
-  if (const std::optional<Eigen::Isometry3d> base =
-          lookupPose(tf_buffer_, options_.frame_id, options_.floor_base_frame, stamp, &why)) {
-    return base->translation();
+  if (std::optional<Eigen::Vector3d> ground = groundPoint(tf_buffer_, options_.frame_id, base, stamp, &why)) {
+    return ground;
   }
   // The frame's floor is then found from its points alone: nothing is lost.
-  ROS_WARN_THROTTLE(5.0, "no transform %s <- %s (floor_base_frame) for a point cloud: its floor is found from its "
-                    "points alone: %s", options_.frame_id.c_str(), options_.floor_base_frame.c_str(), why.c_str());
+  if (base.required) {
+    ROS_WARN_THROTTLE(5.0, "no transform %s <- %s (floor_base_frame) for a point cloud: its floor is found from its "
+                      "points alone: %s", options_.frame_id.c_str(), base.frame.c_str(), why.c_str());
+  }
   return std::nullopt;
 }
 
@@ -339,7 +341,11 @@ void MapperNode::insert(const boost::shared_ptr<const M>& msg, const Eigen::Isom
   }
   const ros::Time stamp = msg->header.stamp;
   if constexpr (std::is_same_v<M, sensor_msgs::PointCloud2>) {
-    if (!options_.floor_base_frame.empty()) core.ground = groundAt(stamp);
+    core.ground = groundAt(stamp);
+    if (core.ground) {
+      std::lock_guard<std::mutex> lock(counters_mutex_);
+      counters_.floor_ground_points++;
+    }
     // Converted and prepared on the pipeline's workers, frames in parallel, applied in arrival
     // order; this thread goes back to the scans (it waits only when frames pile up).
     cloud_pipeline_->submit(std::move(core),

@@ -75,8 +75,8 @@ class MapperNode {
   void clearTfIfFromTheFuture(const std_msgs::Header& header, tf2_ros::FilterFailureReason reason);
   // False (and `why`) when tf has no transform at the header's stamp.
   bool sensorPose(const std_msgs::Header& header, Eigen::Isometry3d* pose, std::string* why);
-  // floor_base_frame's origin in the map frame at `stamp` (none, with a throttled warning, when tf
-  // has no such transform).
+  // The ground point of a cloud stamped `stamp` (floorBaseOf(floor_base_frame)'s origin in the map
+  // frame); none where there is none, with a throttled warning where a named frame cannot be placed.
   std::optional<Eigen::Vector3d> groundAt(const ros::Time& stamp);
   // After a message's insertion (on a cloud worker for clouds): its counters, and the map's
   // change published.

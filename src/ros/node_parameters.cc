@@ -62,9 +62,9 @@ const std::vector<OptionSpec<NodeOptions>>& nodeOptionTable() {
        [](O& o) -> OptionField { return &o.cloud_topics; }},
       {"frame_id", "", "fixed frame of the map", [](O& o) -> OptionField { return &o.frame_id; }},
       {"floor_base_frame", "",
-       "a frame whose origin lies on the floor the robot stands on (base_footprint): each depth frame's floor is the one "
-       "through it, so that no table and no floor below an edge (a stairwell) is taken for it; \"\" = none (a hand-held "
-       "camera: the floor is found from the points alone)",
+       "a frame whose origin lies on the floor the robot stands on: each depth frame's floor is the one through it, so "
+       "that no table and no floor below an edge (a stairwell) is taken for it; \"auto\" = base_footprint where tf "
+       "has it (REP 120), else none; \"\" = none (the floor found from the points alone, as for a hand-held camera)",
        [](O& o) -> OptionField { return &o.floor_base_frame; }},
       {"publish_rate", "Hz", "the whole map is published this often when it changed",
        [](O& o) -> OptionField { return &o.publish_rate; }, true},

@@ -21,10 +21,10 @@ struct NodeOptions {
   std::string scan_topics = "scan";       // sensor_msgs/LaserScan
   std::string cloud_topics = "cloud_in";  // sensor_msgs/PointCloud2
   std::string frame_id = "odom";     // fixed frame the map is built in (the odometry is the pose oracle)
-  // A frame whose origin lies on the floor the cameras' carrier stands on (REP 120's
-  // base_footprint): each depth frame's floor is then the one through it. "": none (a hand-held
-  // camera), the floor is found from the points alone.
-  std::string floor_base_frame;
+  // A frame whose origin lies on the floor the cameras' carrier stands on: each depth frame's floor
+  // is then the one through it. "auto": REP 120's base_footprint where tf has that frame (a
+  // robot's tf does, a hand-held camera's does not); "": none, the floor found from the points alone.
+  std::string floor_base_frame = "auto";
   double publish_rate = 2.0;         // Hz, map / markers publishing when something changed
   bool publish_markers = true;       // ~occupied_cells
   // s (wall): ~occupied_voxels is published at most this often, when the map changed and someone

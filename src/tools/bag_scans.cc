@@ -60,6 +60,7 @@ bool readBag(const std::string& path, const BagTopics& topics, const std::string
              const std::function<void(double)>& progress, const std::string& floor_base_frame) {
   try {
     rosbag::Bag bag(path, rosbag::bagmode::Read);
+    const ros_adapter::FloorBase base = ros_adapter::floorBaseOf(floor_base_frame);
     const std::set<std::string> tf_topics = {"/tf", "/tf_static"};
     std::set<std::string> scan_topics;  // absolute names
     std::vector<std::string> wanted;  // as given, and absolute (a bag may record either)
@@ -150,13 +151,8 @@ bool readBag(const std::string& path, const BagTopics& topics, const std::string
             m, "cloud_not_a_point_cloud2", "cloud_no_transform",
             [&](const sensor_msgs::PointCloud2::ConstPtr& msg, const Eigen::Isometry3d& pose, DeferredCloud* out) {
               const ros_adapter::ScanRejection rejection = ros_adapter::toDeferredCloud(msg, pose, out);
-              if (!rejection.rejected() && !floor_base_frame.empty()) {
-                // None where tf cannot place it: mapped all the same, its floor found from its points alone.
-                if (const std::optional<Eigen::Isometry3d> base =
-                        ros_adapter::lookupPose(buffer, fixed_frame, floor_base_frame, msg->header.stamp)) {
-                  out->ground = base->translation();
-                }
-              }
+              // None where there is none: mapped all the same, its floor found from its points alone.
+              if (!rejection.rejected()) out->ground = ros_adapter::groundPoint(buffer, fixed_frame, base, msg->header.stamp);
               return rejection;
             },
             handlers.cloud, skipped, &held);

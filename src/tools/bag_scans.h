@@ -27,9 +27,10 @@ struct BagHandlers {
 
 // False with a reason if the bag can't be read at all or holds nothing on the topics; messages
 // that are bad or cannot be placed are counted in `skipped` per reason (clouds' reasons start
-// with "cloud_"). `floor_base_frame`, when not "", is the tf frame whose origin is each cloud's
-// ground point (SensorCloud::ground); a cloud tf cannot place it for is handed on without one (and
-// is not counted as skipped: it is mapped, its floor found from its points alone).
+// with "cloud_"). `floor_base_frame` names the tf frame whose origin is each cloud's ground point
+// (SensorCloud::ground), as the node's parameter does ("auto": base_footprint where tf has it; "":
+// none); a cloud tf cannot place it for is handed on without one (and is not counted as skipped:
+// it is mapped, its floor found from its points alone).
 bool readBag(const std::string& path, const BagTopics& topics, const std::string& fixed_frame,
              const BagHandlers& handlers, std::map<std::string, std::size_t>* skipped, std::string* error,
              const std::function<void(double)>& progress = {}, const std::string& floor_base_frame = "");

@@ -36,6 +36,7 @@
 #include "core/internal/memory_reuse.h"
 #include "octo_slice_mapper/option_table.h"
 #include "progress_bar.h"
+#include "ros/tf_lookup.h"
 
 namespace osm = octo_slice_mapper;
 using Clock = std::chrono::steady_clock;
@@ -43,7 +44,7 @@ using Clock = std::chrono::steady_clock;
 namespace {
 
 struct Args {
-  std::string log, bag, fixed_frame = "odom", floor_base_frame, out;
+  std::string log, bag, fixed_frame = "odom", floor_base_frame = "auto", out;
   std::vector<std::string> scan_topics = {"scan"}, cloud_topics;  // "" in either: none
   bool hasCloudTopic() const {
     return std::any_of(cloud_topics.begin(), cloud_topics.end(), [](const std::string& t) { return !t.empty(); });
@@ -106,8 +107,10 @@ bool parse(int argc, char** argv, Args* a, int* code) {
       ->allow_extra_args(false);
   app.add_option("--fixed-frame", a->fixed_frame, "the bag's fixed frame")->capture_default_str();
   app.add_option("--floor-base-frame", a->floor_base_frame,
-                 "a frame whose origin lies on the floor the robot stands on (base_footprint): each depth frame's "
-                 "floor is the one through it (default: none, the floor found from the points alone)");
+                 "a frame whose origin lies on the floor the robot stands on: each depth frame's floor is the one "
+                 "through it; auto: base_footprint where the bag's tf has it (REP 120), else none; '': none (the "
+                 "floor found from the points alone)")
+      ->capture_default_str();
   app.add_option("--out", a->out, "output prefix (default: the package's maps/<log name>)");
   app.add_option("--laser-z", a->carmen.laser_z, "height given to 2D log scans (m)")->capture_default_str();
   app.add_flag("--optimize,!--no-optimize", a->optimize,
@@ -193,8 +196,8 @@ struct Intake {
   std::size_t bad_lines = 0;
   std::string end_error;  // a log that ended early (truncated gzip)
   std::size_t cloud_preparer_bytes = 0;  // the pipeline's windows for preparing clouds
-  // With --floor-base-frame: clouds tf could not place that frame for (mapped without a ground point).
-  std::size_t clouds_without_ground = 0;
+  // Clouds read from a bag, and those with a ground point (--floor-base-frame placed by tf).
+  std::size_t clouds_read = 0, clouds_with_ground = 0;
 };
 
 // Feeds scans and clouds to the session, holding out every Nth scan and reporting refused ones.
@@ -307,7 +310,8 @@ int mapBag(const Args& args, Feeder* feed, osm::tools::ProgressBar* bar, Intake*
   std::size_t bag_scans = 0;
   handlers.scan = [&](const osm::Scan& scan) { feed->scan(scan, args.bag + ": scan " + std::to_string(bag_scans++)); };
   handlers.cloud = [&](const osm::DeferredCloud& cloud) {
-    if (!args.floor_base_frame.empty() && !cloud.ground) intake->clouds_without_ground++;
+    intake->clouds_read++;
+    if (cloud.ground) intake->clouds_with_ground++;
     feed->cloud(cloud);
   };
   std::string error;
@@ -318,9 +322,11 @@ int mapBag(const Args& args, Feeder* feed, osm::tools::ProgressBar* bar, Intake*
     return 1;
   }
   bar->finish();
-  if (intake->clouds_without_ground > 0) {
-    std::cerr << "octo_slice_map: " << intake->clouds_without_ground << " clouds mapped without a ground point (tf could not place "
-              << args.floor_base_frame << " at their stamps): their floor was found from their points alone\n";
+  const osm::ros_adapter::FloorBase base = osm::ros_adapter::floorBaseOf(args.floor_base_frame);
+  const std::size_t without = intake->clouds_read - intake->clouds_with_ground;
+  if (base.required && without > 0) {
+    std::cerr << "octo_slice_map: " << without << " clouds mapped without a ground point (tf could not place "
+              << base.frame << " at their stamps): their floor was found from their points alone\n";
   }
   return 0;
 }
@@ -388,7 +394,7 @@ std::string report(const Args& args, osm::Mapper& mapper, const Intake& intake, 
     json << ", \"clouds\": " << stats.clouds_inserted << ", \"ms_per_cloud\": "
          << (stats.clouds_inserted ? 1000.0 * intake.cloud_seconds / stats.clouds_inserted : 0.0)
          << ", \"cloud_points\": " << jsonReadings(stats.cloud_points);
-    if (!args.floor_base_frame.empty()) json << ", \"clouds_without_ground\": " << intake.clouds_without_ground;
+    json << ", \"clouds_with_ground\": " << intake.clouds_with_ground;
   }
   json << ", \"flush_ms\": " << costs.flush_ms << ", \"snapshot_ms\": " << costs.snapshot_ms
        << ", \"snapshot_leaves\": " << costs.snapshot_leaves
