@@ -16,6 +16,7 @@
 
 #include <boost/make_shared.hpp>
 #include <cmath>
+#include <cstring>
 #include <functional>
 #include <map>
 #include <string>
@@ -46,6 +47,9 @@ TEST(DepthCamera, TheNavigationBandShowsTheTableTopAndTheOverhangTheLidarBandDoe
   nav_msgs::OccupancyGrid::ConstPtr heights;
   ros::Subscriber heights_sub = nh.subscribe<nav_msgs::OccupancyGrid>(
       "/nav_mapper/height_map", 1, [&](const nav_msgs::OccupancyGrid::ConstPtr& msg) { heights = msg; });
+  sensor_msgs::PointCloud2::ConstPtr floor_cells;
+  ros::Subscriber floor_sub = nh.subscribe<sensor_msgs::PointCloud2>(
+      "/nav_mapper/floor_cells", 1, [&](const sensor_msgs::PointCloud2::ConstPtr& msg) { floor_cells = msg; });
   ros::Publisher cloud_pub = nh.advertise<sensor_msgs::PointCloud2>("cloud_in", 10);
   ASSERT_TRUE(waitFor([&] { return cloud_pub.getNumSubscribers() >= 3; }, 20.0)) << "the mappers did not subscribe";
 
@@ -158,6 +162,25 @@ TEST(DepthCamera, TheNavigationBandShowsTheTableTopAndTheOverhangTheLidarBandDoe
   for (double x = 1.5; x < 2.4; x += 0.1) bare += cellOf(heights, x, 1.9) == 0;
   EXPECT_GT(top_height, top_cells * 7 / 10) << top_height << " of " << top_cells << " table-top cells at 0.64-0.80 m";
   EXPECT_GT(bare, 5) << "bare floor cells between the robot and the table";
+  // ~floor_cells: each cell with a floor at its centre on /map's lattice, z the floor found (the
+  // room's, z = 0), top as ~height_map has it (the table top's at 0.64-0.80 m).
+  ASSERT_TRUE(waitFor([&] { return floor_cells && floor_cells->width > 0; }, 10.0)) << "no ~floor_cells";
+  ASSERT_EQ(floor_cells->fields.size(), 4u);
+  EXPECT_EQ(floor_cells->fields[3].name, "top");
+  ASSERT_EQ(floor_cells->data.size(), std::size_t(floor_cells->width) * 16);
+  int on_lattice = 0, level = 0, table_tops = 0;
+  for (std::uint32_t i = 0; i < floor_cells->width; ++i) {
+    float p[4];
+    std::memcpy(p, &floor_cells->data[16 * std::size_t(i)], sizeof p);
+    on_lattice += std::abs(std::remainder(p[0] - nav->info.origin.position.x - 0.025, 0.05)) < 1e-3 &&
+                  std::abs(std::remainder(p[1] - nav->info.origin.position.y - 0.025, 0.05)) < 1e-3;
+    level += std::abs(p[2]) < 0.02;
+    table_tops += p[0] > 2.75 && p[0] < 3.5 && p[1] > 1.7 && p[1] < 2.1 && p[3] >= 0.64 && p[3] <= 0.80;
+  }
+  const int cells_with_floor = int(floor_cells->width);
+  EXPECT_EQ(on_lattice, cells_with_floor);
+  EXPECT_GT(level, cells_with_floor * 95 / 100) << level << " of " << cells_with_floor << " cells' floor within 2 cm of z = 0";
+  EXPECT_GT(table_tops, 20) << "cells under the table top with its height above the floor";
 
   // The node takes each cloud's ground point from floor_base_frame: with the base frame 0.5 m
   // above the floor no frame finds a floor (and each one still goes into the map).

@@ -52,9 +52,9 @@ def cases():
     for topic in ("/map", "/mapper_node/occupied_voxels"):
         shown = displays.get(topic, {}).get("Enabled") is True
         yield f"rviz/mapping.rviz shows {topic}", shown, f"displays: {sorted(t for t in displays if t)}"
-    # A camera's height map is there to switch on (off by default: /map is the map to read).
-    yield "rviz/mapping.rviz has /mapper_node/height_map", "/mapper_node/height_map" in displays, \
-        f"displays: {sorted(t for t in displays if t)}"
+    # A camera's height map and floor are there to switch on (off by default: /map is the map to read).
+    for topic in ("/mapper_node/height_map", "/mapper_node/floor_cells"):
+        yield f"rviz/mapping.rviz has {topic}", topic in displays, f"displays: {sorted(t for t in displays if t)}"
 
 
 def main():

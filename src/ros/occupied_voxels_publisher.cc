@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 namespace octo_slice_mapper {
 namespace ros_adapter {
@@ -39,17 +40,54 @@ nav_msgs::OccupancyGrid heightGrid(const HeightMap& map, const std::string& fram
   return grid;
 }
 
+sensor_msgs::PointCloud2 floorCells(const HeightMap& map, const std::string& frame_id, const ros::Time& stamp) {
+  sensor_msgs::PointCloud2 msg;
+  msg.header.frame_id = frame_id;
+  msg.header.stamp = stamp;
+  const char* names[4] = {"x", "y", "z", "top"};
+  for (std::uint32_t f = 0; f < 4; ++f) {
+    sensor_msgs::PointField field;
+    field.name = names[f];
+    field.offset = 4 * f;
+    field.datatype = sensor_msgs::PointField::FLOAT32;
+    field.count = 1;
+    msg.fields.push_back(field);
+  }
+  msg.point_step = 16;
+  msg.height = 1;
+  msg.is_bigendian = false;
+  msg.is_dense = true;
+  std::vector<float> values;
+  for (int row = 0; row < map.height; ++row) {
+    for (int col = 0; col < map.width; ++col) {
+      const std::size_t c = std::size_t(row) * std::size_t(map.width) + std::size_t(col);
+      if (std::isnan(map.floor[c])) continue;
+      values.push_back(static_cast<float>(map.origin_x + (col + 0.5) * map.resolution));
+      values.push_back(static_cast<float>(map.origin_y + (row + 0.5) * map.resolution));
+      values.push_back(map.floor[c]);
+      values.push_back(std::isnan(map.top[c]) ? 0.0f : map.top[c]);
+    }
+  }
+  msg.width = static_cast<std::uint32_t>(values.size() / 4);
+  msg.row_step = msg.width * msg.point_step;
+  msg.data.resize(values.size() * sizeof(float));
+  std::memcpy(msg.data.data(), values.data(), msg.data.size());  // little-endian: the hosts ROS 1 runs on
+  return msg;
+}
+
 OccupiedVoxelsPublisher::OccupiedVoxelsPublisher(ros::NodeHandle pnh, MappingSession* session, std::string frame_id,
                                                  double period)
     : session_(session),
       frame_id_(std::move(frame_id)),
       publisher_(pnh.advertise<sensor_msgs::PointCloud2>("occupied_voxels", 1, /*latch=*/true)),
       heights_(pnh.advertise<nav_msgs::OccupancyGrid>("height_map", 1, /*latch=*/true)),
+      floor_cells_(pnh.advertise<sensor_msgs::PointCloud2>("floor_cells", 1, /*latch=*/true)),
       timer_(pnh, period, [this] { tick(); }) {}
 
 void OccupiedVoxelsPublisher::tick() {
   const bool voxels_wanted = publisher_.getNumSubscribers() > 0;
-  const bool heights_wanted = heights_.getNumSubscribers() > 0 && session_->floor().status().cells > 0;
+  const bool heights_wanted = (heights_.getNumSubscribers() > 0 || floor_cells_.getNumSubscribers() > 0) &&
+                              session_->floor().status().cells > 0;
   if ((!voxels_wanted && !heights_wanted) || session_->changes() == published_changes_) return;
   std::vector<OccupiedVoxel> voxels;
   std::uint64_t changes = 0;
@@ -58,7 +96,10 @@ void OccupiedVoxelsPublisher::tick() {
   if (voxels_wanted) publisher_.publish(occupiedVoxelsCloud(voxels, frame_id_, now));
   if (heights_wanted) {
     const HeightMap map = heightMapOf(voxels, session_->floor(), session_->mapperOptions().resolution);
-    if (!map.empty()) heights_.publish(heightGrid(map, frame_id_, now));
+    if (!map.empty()) {
+      if (heights_.getNumSubscribers() > 0) heights_.publish(heightGrid(map, frame_id_, now));
+      if (floor_cells_.getNumSubscribers() > 0) floor_cells_.publish(floorCells(map, frame_id_, now));
+    }
   }
   published_changes_ = changes;
 }
