@@ -6,8 +6,9 @@
 // colours; and ~floor_cells, per cell with a floor the floor itself, exact, as a PointCloud2 (x, y
 // the cell's centre, z the floor's height there, top the height above it of what stands on it,
 // 0 on bare floor), which rviz shows in 3D (a ramp, a platform). All latched; published at most
-// once every ~occupied_voxels_period wall seconds, only when the map changed and someone listens. The octree is walked on this publisher's own thread while
-// insertion goes on (MappingSession::occupiedVoxels), so the scans never wait for the walk.
+// once every ~occupied_voxels_period wall seconds, only when the map changed and someone listens.
+// The octree is walked on this publisher's own thread while insertion goes on
+// (MappingSession::occupiedVoxels), so the scans never wait for the walk.
 #pragma once
 
 #include <ros/ros.h>
