@@ -104,15 +104,20 @@ def cases(bin_dir, work):
 
 
 def failed_replay(bin_dir, work):
-    """A replay whose save is refused (outside maps_dir) says so and scripts/replay exits non-zero."""
+    """A replay whose save is refused (outside maps_dir) says so and scripts/replay exits non-zero.
+    Run as from a fresh shell (no workspace sourced) with the bag's path relative: the script
+    sources the build and hands roslaunch an absolute path, or the player never opens the bag."""
     bag = os.path.join(work, "intel.bag")
     if not os.path.exists(bag):
         yield "failed replay", False, "no bag from the cases before"
         return
-    params, port, env, devel_env = ros_session(bin_dir, work, "failed_")
+    params, port, env, _ = ros_session(bin_dir, work, "failed_")
+    build_dir = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(bin_dir))))
+    fresh = {"HOME": os.environ.get("HOME", "/tmp"), "PATH": "/usr/bin:/bin", "ROS_MASTER_URI": env["ROS_MASTER_URI"],
+             "OSM_BUILD_DIR": build_dir}
     log = os.path.join(work, "failed_roslaunch.txt")
-    code = run([devel_env, os.path.join(HERE, "..", "scripts", "replay"), bag, "-p", str(port), "save:=../outside",
-                "rate:=" + RATE, "params_file:=" + params], log, env)
+    code = run([os.path.join(HERE, "..", "scripts", "replay"), os.path.relpath(bag), "-p", str(port),
+                "save:=../outside", "rate:=" + RATE, "params_file:=" + params], log, fresh)
     text = open(log).read()
     yield ("failed replay: non-zero exit and a clear error", code not in (0, None) and "replay FAILED" in text and
            "outside maps_dir" in text, f"exit {code!r} (see {log})")
