@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """octo_slice_map on hostile CARMEN logs: a pose the octree cannot hold
 (finite, 1e30) and a NaN pose are skipped, counted and reported with their line numbers, and the
-map is the one the other lines make.
+map is the one the other lines make. And on a depth camera's bag: the slice's default band.
 
 Usage: offline_tool_test.py RESULT_XML BIN_DIR  (JUnit, as the other tests write)."""
 import json
@@ -61,6 +61,23 @@ def cases(bin_dir):
         code, report, err = run(tool, nan, os.path.join(tmp, "nan"))
         yield "a NaN pose: counted as a bad line and reported with its number", \
             code == 0 and report.get("bad_lines") == 1 and "nan_pose.log:21:" in err, f"exit {code}, {report}, {err}"
+
+        # A depth camera's bag: without a band given, the slice is the navigation band (0.05-0.80 m,
+        # as mapping.launch camera:=true), which the lidar's band (0.16-0.36 m) is not.
+        bag = os.path.join(tmp, "office.bag")
+        made = subprocess.run([os.path.join(bin_dir, "simulate_session"), "--bag", bag, "--truth",
+                               os.path.join(tmp, "truth")], capture_output=True, text=True).returncode == 0
+        slices = {}
+        for name, band in (("default", []), ("nav", ["0.05", "0.80"]), ("lidar", ["0.16", "0.36"])):
+            args = [tool, "--bag", bag, "--scan-topic", "", "--cloud-topic", "/camera/depth/points", "--no-optimize",
+                    "--out", os.path.join(tmp, "camera_" + name)]
+            if band:
+                args += ["--slice-min-z", band[0], "--slice-max-z", band[1]]
+            ok = made and subprocess.run(args, capture_output=True, text=True).returncode == 0
+            slices[name] = open(os.path.join(tmp, f"camera_{name}.pgm"), "rb").read() if ok else None
+        yield "a camera's bag: the default slice is the navigation band", \
+            slices["default"] is not None and slices["default"] == slices["nav"] and slices["default"] != slices["lidar"], \
+            f"simulated: {made}; slices written: {[k for k, v in slices.items() if v is not None]}"
 
 
 def main():

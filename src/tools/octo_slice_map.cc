@@ -103,7 +103,8 @@ bool parse(int argc, char** argv, Args* a, int* code) {
       ->capture_default_str()
       ->allow_extra_args(false);
   app.add_option("--cloud-topic", a->cloud_topics,
-                 "the bag's PointCloud2 topic (a depth camera), mapped too; again for each further camera")
+                 "the bag's PointCloud2 topic (a depth camera), mapped too; again for each further camera. With one, "
+                 "the slice's band defaults to the navigation band, 0.05-0.80 m above the floor")
       ->allow_extra_args(false);
   app.add_option("--fixed-frame", a->fixed_frame, "the bag's fixed frame")->capture_default_str();
   app.add_option("--floor-base-frame", a->floor_base_frame,
@@ -128,6 +129,13 @@ bool parse(int argc, char** argv, Args* a, int* code) {
   } catch (const CLI::ParseError& e) {
     *code = app.exit(e) == 0 ? 0 : 2;
     return false;
+  }
+  // With a depth camera the slice is the navigation band, 0.05-0.80 m above the floor, unless a
+  // band is given: the camera is there to see what the lidar's plane misses (as mapping.launch
+  // camera:=true).
+  if (a->hasCloudTopic()) {
+    if (app.count("--slice-min-z") == 0) a->mapper.slice.min_z = 0.05;
+    if (app.count("--slice-max-z") == 0) a->mapper.slice.max_z = 0.80;
   }
   if (a->log.empty() == a->bag.empty()) {
     std::cerr << "octo_slice_map: give either a CARMEN log or --bag FILE (--help lists the options)\n";
