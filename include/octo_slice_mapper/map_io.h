@@ -4,6 +4,7 @@
 
 #include <octomap/OcTree.h>
 
+#include <array>
 #include <memory>
 #include <string>
 #include <vector>
@@ -65,8 +66,12 @@ struct OccupiedVoxel {
 // it), one per leaf-sized voxel: a pruned node stands for each leaf it holds, with its
 // probability. In the tree's leaf order.
 std::vector<OccupiedVoxel> occupiedVoxels(const octomap::OcTree& tree);
-// `voxels` as a PCL cloud of one row: fields x, y, z, occupancy (FLOAT32, packed), dense. What
-// PREFIX.pcd holds and ~occupied_voxels carries.
+// `points` points of four packed FLOAT32 fields named `names` (x, y, z and one more), 16 bytes
+// each from `data` on, as a PCL cloud of one row, dense.
+void fourFloatCloud(const void* data, std::size_t points, const std::array<const char*, 4>& names,
+                    pcl::PCLPointCloud2* cloud);
+// `voxels` as such a cloud: fields x, y, z, occupancy. What PREFIX.pcd holds and
+// ~occupied_voxels carries.
 void occupiedVoxelsCloud(const std::vector<OccupiedVoxel>& voxels, pcl::PCLPointCloud2* cloud);
 // That cloud as a PCL point cloud file: binary, the header written by PCL's PCDWriter
 // (pcl_viewer, CloudCompare and pcl::io::loadPCDFile read it).

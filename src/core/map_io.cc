@@ -155,15 +155,14 @@ std::vector<OccupiedVoxel> occupiedVoxels(const octomap::OcTree& tree) {
   return voxels;
 }
 
-void occupiedVoxelsCloud(const std::vector<OccupiedVoxel>& voxels, pcl::PCLPointCloud2* cloud) {
-  static_assert(sizeof(OccupiedVoxel) == 16, "four packed floats, as the fields declare");
+void fourFloatCloud(const void* data, std::size_t points, const std::array<const char*, 4>& names,
+                    pcl::PCLPointCloud2* cloud) {
   *cloud = pcl::PCLPointCloud2();
-  cloud->width = static_cast<std::uint32_t>(voxels.size());
+  cloud->width = static_cast<std::uint32_t>(points);
   cloud->height = 1;
   cloud->is_dense = true;
-  cloud->point_step = sizeof(OccupiedVoxel);
+  cloud->point_step = 4 * sizeof(float);
   cloud->row_step = cloud->point_step * cloud->width;
-  const char* names[] = {"x", "y", "z", "occupancy"};
   for (std::uint32_t f = 0; f < 4; ++f) {
     pcl::PCLPointField field;
     field.name = names[f];
@@ -172,8 +171,13 @@ void occupiedVoxelsCloud(const std::vector<OccupiedVoxel>& voxels, pcl::PCLPoint
     field.count = 1;
     cloud->fields.push_back(field);
   }
-  const auto* bytes = reinterpret_cast<const std::uint8_t*>(voxels.data());
-  cloud->data.assign(bytes, bytes + voxels.size() * sizeof(OccupiedVoxel));
+  const auto* bytes = static_cast<const std::uint8_t*>(data);
+  cloud->data.assign(bytes, bytes + points * cloud->point_step);
+}
+
+void occupiedVoxelsCloud(const std::vector<OccupiedVoxel>& voxels, pcl::PCLPointCloud2* cloud) {
+  static_assert(sizeof(OccupiedVoxel) == 16, "four packed floats, as the fields declare");
+  fourFloatCloud(voxels.data(), voxels.size(), {"x", "y", "z", "occupancy"}, cloud);
 }
 
 bool addPointCloud(const std::vector<OccupiedVoxel>& voxels, const std::string& path, FileSet* files,

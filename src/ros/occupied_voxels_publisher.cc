@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 
 namespace octo_slice_mapper {
 namespace ros_adapter {
@@ -41,22 +40,6 @@ nav_msgs::OccupancyGrid heightGrid(const HeightMap& map, const std::string& fram
 }
 
 sensor_msgs::PointCloud2 floorCells(const HeightMap& map, const std::string& frame_id, const ros::Time& stamp) {
-  sensor_msgs::PointCloud2 msg;
-  msg.header.frame_id = frame_id;
-  msg.header.stamp = stamp;
-  const char* names[4] = {"x", "y", "z", "top"};
-  for (std::uint32_t f = 0; f < 4; ++f) {
-    sensor_msgs::PointField field;
-    field.name = names[f];
-    field.offset = 4 * f;
-    field.datatype = sensor_msgs::PointField::FLOAT32;
-    field.count = 1;
-    msg.fields.push_back(field);
-  }
-  msg.point_step = 16;
-  msg.height = 1;
-  msg.is_bigendian = false;
-  msg.is_dense = true;
   std::vector<float> values;
   for (int row = 0; row < map.height; ++row) {
     for (int col = 0; col < map.width; ++col) {
@@ -68,10 +51,12 @@ sensor_msgs::PointCloud2 floorCells(const HeightMap& map, const std::string& fra
       values.push_back(std::isnan(map.top[c]) ? 0.0f : map.top[c]);
     }
   }
-  msg.width = static_cast<std::uint32_t>(values.size() / 4);
-  msg.row_step = msg.width * msg.point_step;
-  msg.data.resize(values.size() * sizeof(float));
-  std::memcpy(msg.data.data(), values.data(), msg.data.size());  // little-endian: the hosts ROS 1 runs on
+  pcl::PCLPointCloud2 cloud;
+  octo_slice_mapper::fourFloatCloud(values.data(), values.size() / 4, {"x", "y", "z", "top"}, &cloud);
+  sensor_msgs::PointCloud2 msg;
+  pcl_conversions::moveFromPCL(cloud, msg);
+  msg.header.frame_id = frame_id;
+  msg.header.stamp = stamp;
   return msg;
 }
 
