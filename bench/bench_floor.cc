@@ -12,8 +12,10 @@
 // Precision and recall with one cell of tolerance (map_evaluation.h); the variants' slices are
 // compared in x-y, where the turn moves obstacles by at most 2 cm.
 //
-//   bench_floor [--sim-frames N] [--every K] [--no-real] [--no-sim] [--assumed-floor]
+//   bench_floor [--sim-frames N] [--seed S] [--every K] [--no-real] [--no-sim] [--assumed-floor]
 //               [--held-out] [--reference-range M] [--reference-min-z M] [--json] [--pictures DIR]
+// --seed: the simulated frames' noise and mixed pixels drawn anew (7 unless given), to see how
+// much of a simulated row's score is its draw.
 // --assumed-floor: the rules of a map without floor finding (the floor at z = 0, no noise model,
 // no flying-pixel filter), for comparison in the same run. ms/frame: one thread, conversion,
 // flying-pixel test and insertion (its share: the column "ms"); ref ms: OctoMap's insertion.
@@ -410,12 +412,14 @@ std::vector<Frame> robotToTheEdge(const osm::sim::BoxScene& scene, int count, un
 
 int main(int argc, char** argv) {
   int sim_frames = 24, every = 1;
+  unsigned seed = 7;  // the simulated frames' noise and mixed pixels
   double reference_range = -1.0;  // OctoMap's default: no cut
   double reference_min_z = 0.15;
   bool real = true, simulated = true, as_json = false;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "--sim-frames" && i + 1 < argc) sim_frames = std::max(4, std::atoi(argv[++i]));
+    else if (arg == "--seed" && i + 1 < argc) seed = static_cast<unsigned>(std::strtoul(argv[++i], nullptr, 10));
     else if (arg == "--every" && i + 1 < argc) every = std::max(1, std::atoi(argv[++i]));
     else if (arg == "--no-real") real = false;
     else if (arg == "--assumed-floor") assumed_floor = true;
@@ -427,7 +431,7 @@ int main(int argc, char** argv) {
     else if (arg == "--pictures" && i + 1 < argc) pictures = argv[++i];
     else {
       std::fprintf(stderr,
-                   "usage: bench_floor [--sim-frames N] [--every K] [--no-real] [--no-sim] [--assumed-floor]\n"
+                   "usage: bench_floor [--sim-frames N] [--seed S] [--every K] [--no-real] [--no-sim] [--assumed-floor]\n"
                    "                   [--held-out] [--reference-range M] [--reference-min-z M] [--json] [--pictures DIR]\n");
       return 2;
     }
@@ -437,20 +441,20 @@ int main(int argc, char** argv) {
               "occupied", "truth", "ms/frame", "ref ms", "floor found", "floor z", "flying", "ms", "phantom");
   if (simulated) {
     const osm::sim::BoxScene office = osm::sim::BoxScene::officeRoom(), ramp = osm::sim::BoxScene::officeRoomWithRamp();
-    const std::vector<Frame> frames = simFrames(office, sim_frames, 0.0, 7);
+    const std::vector<Frame> frames = simFrames(office, sim_frames, 0.0, seed);
     const osm::GridImage truth = simTruth(office);
     for (const Variant& v : variants()) {
       report("sim office", v.name, mapAndScore(frames, v.world, truth, true, "sim " + v.name, 0.0, &office), 0.0);
     }
     if (held_out) {  // a robot's camera, 0.35 m up, in the issue's three frames of reference
-      const std::vector<Frame> robot = simFrames(office, sim_frames, 0.0, 7, 0.35, 0.10);
+      const std::vector<Frame> robot = simFrames(office, sim_frames, 0.0, seed, 0.35, 0.10);
       for (const Variant& v : issueVariants()) {
         report("sim office", "robot, " + v.name, mapAndScore(robot, v.world, truth, true, "sim robot " + v.name), 0.0);
       }
       // The platform and the edge rows without and with the robot's base_footprint as each frame's
       // ground point (floor_base_frame); each scene's frames and truth made once.
       const osm::sim::BoxScene platform = officeWithPlatform();
-      const std::vector<Frame> to_platform = robotToPlatform(platform, sim_frames, 7);
+      const std::vector<Frame> to_platform = robotToPlatform(platform, sim_frames, seed);
       const osm::GridImage platform_truth = simTruth(platform);
       report("sim office", "robot up to a platform",
              mapAndScore(to_platform, Eigen::Isometry3d::Identity(), platform_truth, true, "sim robot platform"), 0.0);
@@ -462,16 +466,16 @@ int main(int argc, char** argv) {
              mapAndScore(to_platform, Eigen::Isometry3d::Identity(), platform_truth, true, "sim robot platform base", 0.35),
              0.0);
       const osm::sim::BoxScene edge = officeAtAnEdge();
-      const std::vector<Frame> to_edge = robotToTheEdge(edge, sim_frames, 7);
+      const std::vector<Frame> to_edge = robotToTheEdge(edge, sim_frames, seed);
       const osm::GridImage edge_truth = simTruth(edge, floorAtTheEdge);
       report("sim office", "robot up to an edge",
              mapAndScore(to_edge, Eigen::Isometry3d::Identity(), edge_truth, true, "sim robot edge"), 0.0);
       report("sim office", "robot up to an edge, base",
              mapAndScore(to_edge, Eigen::Isometry3d::Identity(), edge_truth, true, "sim robot edge base", 0.35), 0.0);
     }
-    report("sim office", "ramp", mapAndScore(simFrames(ramp, sim_frames, 0.0, 7), Eigen::Isometry3d::Identity(),
+    report("sim office", "ramp", mapAndScore(simFrames(ramp, sim_frames, 0.0, seed), Eigen::Isometry3d::Identity(),
                                             simTruth(ramp), true, "sim ramp", 0.0, &ramp), 0.0);
-    const std::vector<Frame> flying = simFrames(office, sim_frames, 0.5, 7);
+    const std::vector<Frame> flying = simFrames(office, sim_frames, 0.5, seed);
     report("sim office", "flying pixels",
            mapAndScore(flying, Eigen::Isometry3d::Identity(), truth, true, "sim flying", 0.0, &office), 0.0);
     report("sim office", "flying, unfiltered",

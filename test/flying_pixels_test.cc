@@ -1,5 +1,6 @@
-// Flying pixels: a depth edge's mixed pixels are flagged; surfaces, grazing floors, thin
-// structures and pixels without depth are not.
+// Flying pixels: a depth edge's mixed pixels are flagged, alone or in a chain along the edge;
+// surfaces, their edges and corners, grazing floors, thin structures and pixels without depth are
+// not.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -50,6 +51,36 @@ TEST(FlyingPixels, AnEdgesMixedPixelsAreFlaggedAndTheSurfacesAreNot) {
   EXPECT_EQ(count, std::size_t(kH - 2));
 }
 
+// Mixed pixels along an edge whose ranges lie close to each other: each has its two neighbours
+// in the chain close (which a count of close neighbours alone lets through), and lies between
+// the near surface and the far one.
+TEST(FlyingPixels, AChainOfMixedPixelsAlongAnEdgeIsFlagged) {
+  // A table top at 2.0 m (rows 0-19) before the floor behind at 2.6 m; row 20, the top's edge,
+  // mixed, its ranges within a centimetre of each other. And a box at 1.5 m before a wall at
+  // 3.0 m (columns 40-63 of rows 30-47), its left column mixed likewise.
+  std::vector<float> depth(kW * kH, 2.6f);
+  for (int v = 0; v < 20; ++v) {
+    for (int u = 0; u < kW; ++u) depth[std::size_t(v) * kW + u] = 2.0f;
+  }
+  for (int u = 0; u < kW; ++u) depth[std::size_t(20) * kW + u] = 2.3f + 0.01f * (u % 2);
+  for (int v = 30; v < kH; ++v) {
+    for (int u = 40; u < kW; ++u) depth[std::size_t(v) * kW + u] = 1.5f;
+    depth[std::size_t(v) * kW + 39] = 2.2f + 0.01f * (v % 2);
+  }
+  std::vector<std::uint8_t> flags;
+  flagFlyingPixels(frameOf(depth), kW, kH, {}, &flags);
+  for (int u = 1; u + 1 < kW; ++u) EXPECT_EQ(flags[std::size_t(20) * kW + u], 1) << "table edge, column " << u;
+  for (int v = 31; v + 1 < kH; ++v) EXPECT_EQ(flags[std::size_t(v) * kW + 39], 1) << "box edge, row " << v;
+  // The surfaces' own pixels, their edges and the box's corner pixel among them, are kept.
+  for (int v = 1; v + 1 < kH; ++v) {
+    for (int u = 1; u + 1 < kW; ++u) {
+      if (v != 20 && !(u == 39 && v >= 30)) {
+        EXPECT_EQ(flags[std::size_t(v) * kW + u], 0) << u << " " << v;
+      }
+    }
+  }
+}
+
 TEST(FlyingPixels, AGrazingFloorAOnePixelPoleAndPixelsWithoutDepthAreKept) {
   std::vector<float> depth(kW * kH, kNaN);
   // A floor seen at a grazing angle: depth grows fast from row to row (4 m ... 1.6 m, 5 cm a row).
@@ -75,10 +106,10 @@ TEST(FlyingPixels, OffOrNotOrganizedFlagsNothing) {
   EXPECT_EQ(flagFlyingPixels(frameOf(depth), kW * kH, 1, {}, &flags), 0u);  // an unorganized cloud
 }
 
-// The row judge flags exactly what the rule says, pixel by pixel, for one, two and three
+// The row judge flags exactly what the rule says, pixel by pixel, for one, two, three and four
 // neighbours needed, in a row whose length is not a multiple of a vector's: random ranges with
 // depth edges, noise and holes; and smooth surfaces with a rare edge, hole or lone pixel (where
-// most pixels are settled by their left and right neighbours).
+// most pixels are settled by their left, right and upper neighbours).
 TEST(FlyingPixels, TheRowJudgeFlagsExactlyWhatTheRuleSays) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<float> unit(0.0f, 1.0f);
@@ -97,7 +128,7 @@ TEST(FlyingPixels, TheRowJudgeFlagsExactlyWhatTheRuleSays) {
       }
     }
     FlyingPixelOptions options;
-    options.min_neighbours = 1 + trial % 3;
+    options.min_neighbours = 1 + trial % 4;
     const float* up = rows.data();
     const float* mid = up + width;
     const float* down = mid + width;
@@ -115,7 +146,11 @@ TEST(FlyingPixels, TheRowJudgeFlagsExactlyWhatTheRuleSays) {
             close += std::abs(row[u + du] - mid[u]) <= gap;
           }
         }
-        flying = close < options.min_neighbours;
+        // Between two opposite neighbours: nearer than one and farther than the other, beyond the gap.
+        const auto between = [&](float a, float b) {
+          return (a < mid[u] - gap && b > mid[u] + gap) || (a > mid[u] + gap && b < mid[u] - gap);
+        };
+        flying = close < options.min_neighbours || between(mid[u - 1], mid[u + 1]) || between(up[u], down[u]);
       }
       expected_count += flying;
       ASSERT_EQ(flags[u], flying ? 1 : 0) << "trial " << trial << ", pixel " << u;

@@ -32,7 +32,14 @@ std::size_t flagFlyingPixels(const std::vector<Eigen::Vector3f>& organized, int 
 
 namespace {
 
-// Whether pixel u has fewer than `needed` close neighbours and a range: the rule itself.
+// Whether the range r lies beyond the gap between a and b, nearer than one and farther than the
+// other (false where either has no range).
+inline bool between(float a, float b, float r, float gap) {
+  return (a < r - gap && b > r + gap) || (a > r + gap && b < r - gap);
+}
+
+// Whether pixel u has a range and is flying: fewer than `needed` close neighbours, or between
+// its left and right or its upper and lower neighbours. The rule itself.
 inline bool flyingAt(const float* up, const float* mid, const float* down, int u, float base, float per_metre,
                      int needed) {
   const float r = mid[u], gap = base + per_metre * r;
@@ -40,7 +47,8 @@ inline bool flyingAt(const float* up, const float* mid, const float* down, int u
                     (std::abs(mid[u - 1] - r) <= gap) + (std::abs(mid[u + 1] - r) <= gap) +
                     (std::abs(down[u - 1] - r) <= gap) + (std::abs(down[u] - r) <= gap) +
                     (std::abs(down[u + 1] - r) <= gap);
-  return (close < needed) & (r == r);
+  const bool lone = close < needed;
+  return (lone | between(mid[u - 1], mid[u + 1], r, gap) | between(up[u], down[u], r, gap)) & (r == r);
 }
 
 }  // namespace
@@ -56,34 +64,41 @@ std::size_t flagFlyingRow(const float* up, const float* mid, const float* down, 
   std::size_t count = 0;
   int u = 1;
 #if defined(__SSE2__)
-  // Four pixels at a time. Nearly every pixel lies on a surface, where its left and right
-  // neighbours are both close: with two neighbours needed, that settles it, and the other six are
-  // read only for the few blocks of four at a depth edge or a hole's rim. A pixel without a
-  // range is never flying. Each comparison is the rule's own (|n - r| <= gap, false for NaN).
+  // Four pixels at a time. Nearly every pixel lies on a surface, where its left, right and upper
+  // neighbours are all close: that settles it (three close, and between neither pair), and the
+  // other five are read only for the few blocks of four at a depth edge or a hole's rim. A pixel
+  // without a range is never flying. Each comparison is the rule's own (false for NaN).
   const __m128 base4 = _mm_set1_ps(base), per_metre4 = _mm_set1_ps(per_metre);
   const __m128 sign = _mm_set1_ps(-0.0f);
   const __m128i needed4 = _mm_set1_epi32(needed);
-  const bool two_settle = needed <= 2;
+  const bool three_settle = needed <= 3;
   const auto close = [&](const float* n, __m128 r, __m128 gap) {
     return _mm_cmple_ps(_mm_andnot_ps(sign, _mm_sub_ps(_mm_loadu_ps(n), r)), gap);
+  };
+  // Between a and b: one nearer than r - gap, the other farther than r + gap.
+  const auto between4 = [](__m128 a, __m128 b, __m128 nearer, __m128 farther) {
+    return _mm_or_ps(_mm_and_ps(_mm_cmplt_ps(a, nearer), _mm_cmpgt_ps(b, farther)),
+                     _mm_and_ps(_mm_cmpgt_ps(a, farther), _mm_cmplt_ps(b, nearer)));
   };
   for (; u + 4 < width; u += 4) {
     const __m128 r = _mm_loadu_ps(mid + u);
     const __m128 gap = _mm_add_ps(base4, _mm_mul_ps(per_metre4, r));
     const __m128 left = close(mid + u - 1, r, gap), right = close(mid + u + 1, r, gap);
-    const int settled = two_settle ? _mm_movemask_ps(_mm_and_ps(left, right)) : 0;
+    const __m128 above = close(up + u, r, gap);
+    const int settled = three_settle ? _mm_movemask_ps(_mm_and_ps(_mm_and_ps(left, right), above)) : 0;
     if (settled == 0xF) continue;
     const __m128 no_range = _mm_cmpunord_ps(r, r);
     if ((settled | _mm_movemask_ps(no_range)) == 0xF) continue;
     // The count: each close neighbour's mask is -1.
-    __m128i n = _mm_add_epi32(_mm_castps_si128(left), _mm_castps_si128(right));
-    for (const float* row : {up, down}) {
-      n = _mm_add_epi32(n, _mm_castps_si128(close(row + u - 1, r, gap)));
-      n = _mm_add_epi32(n, _mm_castps_si128(close(row + u, r, gap)));
-      n = _mm_add_epi32(n, _mm_castps_si128(close(row + u + 1, r, gap)));
-    }
-    const __m128i few = _mm_cmpgt_epi32(needed4, _mm_sub_epi32(_mm_setzero_si128(), n));
-    const int flying = _mm_movemask_ps(_mm_andnot_ps(no_range, _mm_castsi128_ps(few)));
+    __m128i n = _mm_add_epi32(_mm_add_epi32(_mm_castps_si128(left), _mm_castps_si128(right)), _mm_castps_si128(above));
+    n = _mm_add_epi32(n, _mm_castps_si128(close(up + u - 1, r, gap)));
+    n = _mm_add_epi32(n, _mm_castps_si128(close(up + u + 1, r, gap)));
+    for (int du = -1; du <= 1; ++du) n = _mm_add_epi32(n, _mm_castps_si128(close(down + u + du, r, gap)));
+    const __m128 few = _mm_castsi128_ps(_mm_cmpgt_epi32(needed4, _mm_sub_epi32(_mm_setzero_si128(), n)));
+    const __m128 nearer = _mm_sub_ps(r, gap), farther = _mm_add_ps(r, gap);
+    const __m128 across = _mm_or_ps(between4(_mm_loadu_ps(mid + u - 1), _mm_loadu_ps(mid + u + 1), nearer, farther),
+                                    between4(_mm_loadu_ps(up + u), _mm_loadu_ps(down + u), nearer, farther));
+    const int flying = _mm_movemask_ps(_mm_andnot_ps(no_range, _mm_or_ps(few, across)));
     for (int k = 0; k < 4; ++k) {
       out[u + k] = static_cast<std::uint8_t>((flying >> k) & 1);
       count += out[u + k];

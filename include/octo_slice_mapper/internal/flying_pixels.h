@@ -1,7 +1,11 @@
 // Flying pixels: a depth camera's mixed pixels at depth edges, which read a depth between the
 // edge and what lies behind it and so float in free air. Found in the organized frame: a pixel
-// close in range to fewer than two of its eight neighbours stands alone (a surface's pixel,
-// even at a grazing angle, has at least its neighbours along the surface).
+// is flying when it is close in range to fewer than min_neighbours of its eight neighbours (it
+// stands alone), or when it lies between two opposite neighbours (left and right, or above and
+// below), nearer than one and farther than the other by more than the close gap (a chain of
+// mixed pixels along an edge, close to each other). A surface's pixel has its neighbours along
+// the surface, and at an edge on the side of the surface it belongs to; a floor seen at a grazing
+// angle steps less than the gap from one pixel row to the next.
 #pragma once
 
 #include <Eigen/Core>
