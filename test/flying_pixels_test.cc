@@ -1,8 +1,9 @@
 // Flying pixels: a depth edge's mixed pixels are flagged, alone or in a chain along the edge;
-// surfaces, their edges and corners, grazing floors, thin structures and pixels without depth are
-// not.
+// surfaces, their edges and corners, grazing floors (also where their rows step by more than the
+// gap), thin structures and pixels without depth are not.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -57,12 +58,13 @@ TEST(FlyingPixels, AnEdgesMixedPixelsAreFlaggedAndTheSurfacesAreNot) {
 TEST(FlyingPixels, AChainOfMixedPixelsAlongAnEdgeIsFlagged) {
   // A table top at 2.0 m (rows 0-19) before the floor behind at 2.6 m; row 20, the top's edge,
   // mixed, its ranges within a centimetre of each other. And a box at 1.5 m before a wall at
-  // 3.0 m (columns 40-63 of rows 30-47), its left column mixed likewise.
+  // 3.0 m (columns 40-63 of rows 30-47), its left column mixed likewise. Neither chain lies on a
+  // straight surface from the near side to the far one (the two sides' harmonic mean).
   std::vector<float> depth(kW * kH, 2.6f);
   for (int v = 0; v < 20; ++v) {
     for (int u = 0; u < kW; ++u) depth[std::size_t(v) * kW + u] = 2.0f;
   }
-  for (int u = 0; u < kW; ++u) depth[std::size_t(20) * kW + u] = 2.3f + 0.01f * (u % 2);
+  for (int u = 0; u < kW; ++u) depth[std::size_t(20) * kW + u] = 2.45f + 0.01f * (u % 2);
   for (int v = 30; v < kH; ++v) {
     for (int u = 40; u < kW; ++u) depth[std::size_t(v) * kW + u] = 1.5f;
     depth[std::size_t(v) * kW + 39] = 2.2f + 0.01f * (v % 2);
@@ -92,6 +94,25 @@ TEST(FlyingPixels, AGrazingFloorAOnePixelPoleAndPixelsWithoutDepthAreKept) {
   for (int u = 40; u < 45; ++u) depth[std::size_t(10) * kW + u] = kNaN;
   std::vector<std::uint8_t> flags;
   EXPECT_EQ(flagFlyingPixels(frameOf(depth), kW, kH, {}, &flags), 0u);
+}
+
+// A surface seen so obliquely that its ranges step by more than the gap from one pixel row to the
+// next (a floor far from a low camera, a coarse camera's floor) lies between its neighbours above
+// and below, but on the straight surface through them: kept. A pixel off that surface is flagged.
+TEST(FlyingPixels, AnObliqueSurfacesPixelBetweenItsNeighboursIsKept) {
+  const int width = 9;
+  // A plane's ranges at evenly spaced rays: 1 / range linear (5 m in the middle row, rows 0.5 m apart).
+  std::vector<float> up(width, 1.0f / 0.18f), mid(width, 1.0f / 0.2f), down(width, 1.0f / 0.22f);
+  std::vector<std::uint8_t> flags(width);
+  FlyingPixelOptions options;
+  const float gap = float(options.gap_base) + float(options.gap_per_metre) * mid[4];
+  ASSERT_GT(up[4] - mid[4], gap);
+  ASSERT_GT(mid[4] - down[4], gap);
+  EXPECT_EQ(flagFlyingRow(up.data(), mid.data(), down.data(), width, options, flags.data()), 0u);
+  // The middle row 0.3 m off the plane, still between the rows above and below (a chain of mixed
+  // pixels): each is flagged, but for the border columns.
+  std::fill(mid.begin(), mid.end(), 5.3f);
+  EXPECT_EQ(flagFlyingRow(up.data(), mid.data(), down.data(), width, options, flags.data()), std::size_t(width - 2));
 }
 
 TEST(FlyingPixels, OffOrNotOrganizedFlagsNothing) {
@@ -146,9 +167,11 @@ TEST(FlyingPixels, TheRowJudgeFlagsExactlyWhatTheRuleSays) {
             close += std::abs(row[u + du] - mid[u]) <= gap;
           }
         }
-        // Between two opposite neighbours: nearer than one and farther than the other, beyond the gap.
+        // Between two opposite neighbours: nearer than one and farther than the other, beyond the
+        // gap, and off the straight surface through them (their harmonic mean) by more than it.
         const auto between = [&](float a, float b) {
-          return (a < mid[u] - gap && b > mid[u] + gap) || (a > mid[u] + gap && b < mid[u] - gap);
+          const bool across = (a < mid[u] - gap && b > mid[u] + gap) || (a > mid[u] + gap && b < mid[u] - gap);
+          return across && std::abs(mid[u] * (a + b) - 2.0f * a * b) > gap * (a + b);
         };
         flying = close < options.min_neighbours || between(mid[u - 1], mid[u + 1]) || between(up[u], down[u]);
       }

@@ -33,9 +33,13 @@ std::size_t flagFlyingPixels(const std::vector<Eigen::Vector3f>& organized, int 
 namespace {
 
 // Whether the range r lies beyond the gap between a and b, nearer than one and farther than the
-// other (false where either has no range).
+// other, and off the straight surface through them by more than the gap (false where either has
+// no range). A plane's ranges at evenly spaced rays have 1 / range linear, so a surface seen
+// obliquely, whose rows step by more than the gap, lies at the harmonic mean of its neighbours.
 inline bool between(float a, float b, float r, float gap) {
-  return (a < r - gap && b > r + gap) || (a > r + gap && b < r - gap);
+  const bool across = (a < r - gap && b > r + gap) || (a > r + gap && b < r - gap);
+  // |r - 2 a b / (a + b)| > gap, without the division.
+  return across && std::abs(r * (a + b) - 2.0f * a * b) > gap * (a + b);
 }
 
 // Whether pixel u has a range and is flying: fewer than `needed` close neighbours, or between
@@ -75,10 +79,13 @@ std::size_t flagFlyingRow(const float* up, const float* mid, const float* down, 
   const auto close = [&](const float* n, __m128 r, __m128 gap) {
     return _mm_cmple_ps(_mm_andnot_ps(sign, _mm_sub_ps(_mm_loadu_ps(n), r)), gap);
   };
-  // Between a and b: one nearer than r - gap, the other farther than r + gap.
-  const auto between4 = [](__m128 a, __m128 b, __m128 nearer, __m128 farther) {
-    return _mm_or_ps(_mm_and_ps(_mm_cmplt_ps(a, nearer), _mm_cmpgt_ps(b, farther)),
-                     _mm_and_ps(_mm_cmpgt_ps(a, farther), _mm_cmplt_ps(b, nearer)));
+  // between() four at a time (nearer = r - gap, farther = r + gap).
+  const auto between4 = [&](__m128 a, __m128 b, __m128 r, __m128 gap, __m128 nearer, __m128 farther) {
+    const __m128 across = _mm_or_ps(_mm_and_ps(_mm_cmplt_ps(a, nearer), _mm_cmpgt_ps(b, farther)),
+                                    _mm_and_ps(_mm_cmpgt_ps(a, farther), _mm_cmplt_ps(b, nearer)));
+    const __m128 sum = _mm_add_ps(a, b);
+    const __m128 off = _mm_andnot_ps(sign, _mm_sub_ps(_mm_mul_ps(r, sum), _mm_mul_ps(_mm_set1_ps(2.0f), _mm_mul_ps(a, b))));
+    return _mm_and_ps(across, _mm_cmpgt_ps(off, _mm_mul_ps(gap, sum)));
   };
   for (; u + 4 < width; u += 4) {
     const __m128 r = _mm_loadu_ps(mid + u);
@@ -96,8 +103,9 @@ std::size_t flagFlyingRow(const float* up, const float* mid, const float* down, 
     for (int du = -1; du <= 1; ++du) n = _mm_add_epi32(n, _mm_castps_si128(close(down + u + du, r, gap)));
     const __m128 few = _mm_castsi128_ps(_mm_cmpgt_epi32(needed4, _mm_sub_epi32(_mm_setzero_si128(), n)));
     const __m128 nearer = _mm_sub_ps(r, gap), farther = _mm_add_ps(r, gap);
-    const __m128 across = _mm_or_ps(between4(_mm_loadu_ps(mid + u - 1), _mm_loadu_ps(mid + u + 1), nearer, farther),
-                                    between4(_mm_loadu_ps(up + u), _mm_loadu_ps(down + u), nearer, farther));
+    const __m128 across =
+        _mm_or_ps(between4(_mm_loadu_ps(mid + u - 1), _mm_loadu_ps(mid + u + 1), r, gap, nearer, farther),
+                  between4(_mm_loadu_ps(up + u), _mm_loadu_ps(down + u), r, gap, nearer, farther));
     const int flying = _mm_movemask_ps(_mm_andnot_ps(no_range, _mm_or_ps(few, across)));
     for (int k = 0; k < 4; ++k) {
       out[u + k] = static_cast<std::uint8_t>((flying >> k) & 1);

@@ -60,7 +60,8 @@ const std::vector<OptionSpec<MapperOptions>>& mapperOptionTable() {
       {"cloud_flying_pixel_filter", "", "point clouds: leave out an organized frame's flying pixels (mixed pixels at depth edges)",
        [](O& o) -> OptionField { return &o.insert.cloud_flying_pixels.enabled; }},
       {"cloud_flying_pixel_gap", "m", "point clouds: a neighbour pixel is close within this plus cloud_flying_pixel_gap_per_metre x range "
-       "(a pixel close to fewer than two of its eight, or beyond it between two opposite ones, is flying)",
+       "(a pixel close to fewer than two of its eight, or beyond it between two opposite ones and off the line through them, "
+       "is flying)",
        [](O& o) -> OptionField { return &o.insert.cloud_flying_pixels.gap_base; }},
       {"cloud_flying_pixel_gap_per_metre", "", "point clouds: the close gap's growth with range",
        [](O& o) -> OptionField { return &o.insert.cloud_flying_pixels.gap_per_metre; }},

@@ -2,10 +2,12 @@
 // edge and what lies behind it and so float in free air. Found in the organized frame: a pixel
 // is flying when it is close in range to fewer than min_neighbours of its eight neighbours (it
 // stands alone), or when it lies between two opposite neighbours (left and right, or above and
-// below), nearer than one and farther than the other by more than the close gap (a chain of
-// mixed pixels along an edge, close to each other). A surface's pixel has its neighbours along
-// the surface, and at an edge on the side of the surface it belongs to; a floor seen at a grazing
-// angle steps less than the gap from one pixel row to the next.
+// below), nearer than one and farther than the other by more than the close gap, and off the
+// straight surface through them by more than the gap too (a chain of mixed pixels along an edge,
+// close to each other). A surface's pixel has its neighbours along the surface, and at an edge on
+// the side of the surface it belongs to; a surface seen so obliquely that its rows step by more
+// than the gap (a floor far from a low or coarse camera) lies on the straight surface through
+// its neighbours.
 #pragma once
 
 #include <Eigen/Core>
