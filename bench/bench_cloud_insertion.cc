@@ -55,6 +55,7 @@
 #include "core/internal/end_voxel_grouping.h"
 #include "core/internal/memory_reuse.h"
 #include "octo_slice_mapper/sim/depth_camera.h"
+#include "octo_slice_mapper/slice_grid.h"
 #include "ros/point_cloud_conversion.h"
 
 namespace osm = octo_slice_mapper;
@@ -315,8 +316,8 @@ int main(int argc, char** argv) {
   osm::MapperOptions options;
   options.resolution = resolution;
   options.keep_scans = false;
-  options.slice.min_z = 0.05;  // the navigation band: floor + margin to above the table
-  options.slice.max_z = 0.80;
+  options.slice.min_z = osm::kNavigationBandMinZ;
+  options.slice.max_z = osm::kNavigationBandMaxZ;
   options.floor.find = find_floor;
   options.insert.cloud_flying_pixels.enabled = flying_filter;
   if (shared_free_run >= 0) options.insert.cloud_shared_free_run = shared_free_run;

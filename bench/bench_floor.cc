@@ -46,6 +46,7 @@
 #include "octo_slice_mapper/map_io.h"
 #include "octo_slice_mapper/mapper.h"
 #include "octo_slice_mapper/sim/depth_camera.h"
+#include "octo_slice_mapper/slice_grid.h"
 #include "tools/tum_sequence.h"
 
 namespace osm = octo_slice_mapper;
@@ -152,8 +153,8 @@ Outcome mapAndScore(const std::vector<Frame>& frames, const Eigen::Isometry3d& w
     options.insert.cloud_mark_sigmas = 0.0;
     filter_flying = false;
   }
-  options.slice.min_z = 0.05;
-  options.slice.max_z = 0.80;
+  options.slice.min_z = osm::kNavigationBandMinZ;
+  options.slice.max_z = osm::kNavigationBandMaxZ;
   osm::Mapper mapper(options);
   osm::FlyingPixelOptions flying;
   Outcome out;

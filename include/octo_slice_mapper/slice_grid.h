@@ -24,6 +24,13 @@ struct SliceOptions {
   std::size_t max_cells = 100000000;
 };
 
+// The navigation band (m above the floor): from a margin over the floor to above the robot (a
+// TurtleBot 2 with its camera), so that a table top and a shelf's overhang are in it. A depth
+// camera's slice defaults to it (octo_slice_map --cloud-topic; mapper.launch.xml repeats it, as
+// XML cannot read this), and the simulator's navigation truth is sliced from it.
+constexpr double kNavigationBandMinZ = 0.05;
+constexpr double kNavigationBandMaxZ = 0.80;
+
 constexpr std::int8_t kUnknownCell = -1;
 // A cell waiting to be recomputed while updateColumns() or rebuild() runs: no value a cell holds.
 constexpr std::int8_t kPendingCell = 127;

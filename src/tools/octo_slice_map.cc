@@ -35,6 +35,7 @@
 #include "octo_slice_mapper/mapping_session.h"
 #include "core/internal/memory_reuse.h"
 #include "octo_slice_mapper/option_table.h"
+#include "octo_slice_mapper/slice_grid.h"
 #include "progress_bar.h"
 #include "ros/tf_lookup.h"
 
@@ -134,8 +135,8 @@ bool parse(int argc, char** argv, Args* a, int* code) {
   // band is given: the camera is there to see what the lidar's plane misses (as mapping.launch
   // camera:=true).
   if (a->hasCloudTopic()) {
-    if (app.count("--slice-min-z") == 0) a->mapper.slice.min_z = 0.05;
-    if (app.count("--slice-max-z") == 0) a->mapper.slice.max_z = 0.80;
+    if (app.count("--slice-min-z") == 0) a->mapper.slice.min_z = osm::kNavigationBandMinZ;
+    if (app.count("--slice-max-z") == 0) a->mapper.slice.max_z = osm::kNavigationBandMaxZ;
   }
   if (a->log.empty() == a->bag.empty()) {
     std::cerr << "octo_slice_map: give either a CARMEN log or --bag FILE (--help lists the options)\n";

@@ -8,7 +8,7 @@
 // camera_depth_optical_frame), /odom (nav_msgs/Odometry), /camera/depth/points (PointCloud2,
 // organized, NaN where the camera sees nothing; sim::CameraMount: 160 x 120 at 2 Hz).
 // Truth: PREFIX.{pgm,yaml} for the lidar's plane, PREFIX_nav.{pgm,yaml} for the navigation band
-// (kNavMinZ..kNavMaxZ: what the robot can hit, table top and overhang included).
+// (kNavigationBandMinZ..kNavigationBandMaxZ, slice_grid.h: what the robot can hit).
 //
 // --real-robot: the traits of a real TurtleBot's recording: a REP 117 driver (+inf no
 // return, -inf too close, NaN), the lidar mounted yawed 20 deg and 3 cm to the side, odometry
@@ -36,6 +36,7 @@
 #include "octo_slice_mapper/map_io.h"
 #include "octo_slice_mapper/sim/depth_camera.h"
 #include "octo_slice_mapper/sim/session.h"
+#include "octo_slice_mapper/slice_grid.h"
 #include "planar_transform.h"
 #include "ros/point_cloud_conversion.h"
 
@@ -45,8 +46,6 @@ using octo_slice_mapper::tools::planarTransform;
 namespace {
 
 const double kStartTime = 1000.0;  // bag time of t = 0 (ROS time 0 means "unset")
-// The navigation band: floor + margin to above the robot (a TurtleBot 2 with its camera).
-const double kNavMinZ = 0.05, kNavMaxZ = 0.80;
 
 geometry_msgs::TransformStamped staticTransform(const Eigen::Isometry3d& pose, const std::string& parent,
                                                 const std::string& child, const ros::Time& stamp) {
@@ -95,7 +94,7 @@ int main(int argc, char** argv) {
   std::string error;
   const auto truth = plan.groundTruth(0.05);
   if (!octo_slice_mapper::savePgmYaml(truth, truth_prefix, &error) ||
-      !octo_slice_mapper::savePgmYaml(plan.groundTruthBand(0.05, kNavMinZ, kNavMaxZ), truth_prefix + "_nav", &error)) {
+      !octo_slice_mapper::savePgmYaml(plan.groundTruthBand(0.05, octo_slice_mapper::kNavigationBandMinZ, octo_slice_mapper::kNavigationBandMaxZ), truth_prefix + "_nav", &error)) {
     std::cerr << "simulate_session: " << error << "\n";
     return 1;
   }
