@@ -157,6 +157,38 @@ TEST(FloorLayer, ALevelSurfaceAStepAboveASeenFloorIsNotTheFloor) {
   EXPECT_EQ(ahead.status().source, FloorSource::kFound);
 }
 
+// A hand-held camera at the foot of a ramp sees the platform fill its view and little of the floor
+// under it: the platform's plane, a step above the floor seen, is the floor all the same where the
+// frame shows the ramp climbing to it; with a step up instead of the ramp, it is not.
+TEST(FloorLayer, APlatformTheFrameSeesARampClimbToIsTheFloor) {
+  const Eigen::Vector3d sensor(0.5, 0.2, 1.0);
+  const auto frameUpTo = [](bool ramp) {
+    std::vector<Eigen::Vector3d> samples;
+    addSurface(&samples, 0.9, 1.0, 0.0, 0.4, 0.0);  // a strip of the floor
+    if (ramp) {
+      // 0.10 m over 1.2 m (1 in 12), a strip of it in view.
+      std::mt19937 rng(7);
+      std::normal_distribution<double> gauss(0.0, 0.005);
+      for (double x = 1.025; x < 2.2; x += kResolution) {
+        for (double y = 0.025; y < 0.4; y += kResolution) samples.emplace_back(x, y, 0.10 * (x - 1.0) / 1.2 + gauss(rng));
+      }
+      addSurface(&samples, 2.2, 4.0, 0.0, 2.0, 0.10);
+    } else {
+      addSurface(&samples, 1.0, 1.05, 0.0, 0.4, 0.05);  // the step's edge, a mixed column halfway up
+      addSurface(&samples, 1.05, 4.0, 0.0, 2.0, 0.10);
+    }
+    return samples;
+  };
+  for (const bool ramp : {true, false}) {
+    FloorLayer layer(kResolution, {});
+    for (std::uint64_t k = 0; k < FloorLayer::kLag; ++k) layer.observe(sensor, floorFrame(0.0, 0.0, 1.0), 10.0);
+    const FloorView view = layer.observe(sensor, frameUpTo(ramp), 10.0);
+    EXPECT_EQ(layer.status().source, ramp ? FloorSource::kFound : FloorSource::kKept) << "ramp " << ramp;
+    EXPECT_NEAR(view.heightAt(3.0, 1.0), ramp ? 0.10 : 0.0, 0.01) << "ramp " << ramp;
+    EXPECT_NEAR(view.heightAt(0.5, 0.5), 0.0, 0.01) << "ramp " << ramp;  // the floor seen stays
+  }
+}
+
 // With the robot's ground point, the floor under it is the one it stands on: at a stairwell's edge
 // the landing below does not replace it (without the point it does: the frame's lowest plane wins),
 // and a platform it climbed is its floor although a step above the floor seen before.

@@ -31,7 +31,10 @@ struct FloorOptions {
   int memory_frames = 10;
   // Once a floor is known, a level surface found more than this (m) above it is not the floor
   // (a box, a seat, a table: a robot's floor does not step up by more than a ramp climbs
-  // between two frames); a lower one always is (what was known may have been a table).
+  // between two frames); a lower one always is (what was known may have been a table). Nor does
+  // max_step below hold against a surface the frame's own returns climb to from the floor known
+  // without a step (a ramp up to a platform: each cell's lowest return within half a max_step of
+  // its neighbour's).
   double max_rise = 0.08;
   // Where the floor under the sensor was seen (not only followed from a plane), a level surface
   // more than this above it is a step's top, not the floor: a robot's low camera at a step sees
@@ -204,6 +207,9 @@ class FloorLayer {
     Eigen::Vector3d sensor = Eigen::Vector3d::Zero();
     std::optional<BoundedPlane> plane;  // none: no floor found in the frame
     bool grounded = false;              // the plane passes through the carrier's ground point
+    // The frame shows a walkable surface (a ramp) from the floor known up to its plane: a plane
+    // above the floor known under the sensor is the floor all the same (the table rule spares it).
+    bool reached = false;
     std::vector<std::uint32_t> floor_cells, other_cells;  // (key x | key y << 16), each once
   };
   static std::uint32_t tileId(int tx, int ty) { return std::uint32_t(tx) | std::uint32_t(ty) << 16; }

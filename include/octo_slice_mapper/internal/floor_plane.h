@@ -10,7 +10,7 @@
 namespace octo_slice_mapper {
 
 struct FloorFitOptions {
-  // A floor plane's normal lies within this angle of the map's z axis (rad, 8 degrees): a ramp
+  // A floor plane's normal lies within this angle of the map's z axis (rad, 5.2 degrees): a ramp
   // (wheelchair ramps rise at most 1 in 12, 4.8 degrees), a tilted mount or odometry off by a
   // few degrees still fit; a wall or a heap of clutter seldom does.
   double max_tilt = 0.09;
