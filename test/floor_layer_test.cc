@@ -187,6 +187,14 @@ TEST(FloorLayer, APlatformTheFrameSeesARampClimbToIsTheFloor) {
     EXPECT_NEAR(view.heightAt(3.0, 1.0), ramp ? 0.10 : 0.0, 0.01) << "ramp " << ramp;
     EXPECT_NEAR(view.heightAt(0.5, 0.5), 0.0, 0.01) << "ramp " << ramp;  // the floor seen stays
   }
+  // A stray return 150 m off spreads the frame over 9 M cells: it is not searched (nor its grid
+  // allocated), and the table rule holds as without the search.
+  FloorLayer layer(kResolution, {});
+  for (std::uint64_t k = 0; k < FloorLayer::kLag; ++k) layer.observe(sensor, floorFrame(0.0, 0.0, 1.0), 10.0);
+  std::vector<Eigen::Vector3d> stray = frameUpTo(true);
+  stray.emplace_back(150.0, 150.0, 0.5);
+  layer.observe(sensor, stray, 10.0);
+  EXPECT_EQ(layer.status().source, FloorSource::kKept);
 }
 
 // With the robot's ground point, the floor under it is the one it stands on: at a stairwell's edge

@@ -299,6 +299,10 @@ bool climbsTo(const std::vector<Eigen::Vector3d>& samples, const std::vector<std
               double resolution) {
   if (box.x1 < box.x0) return false;
   const int w = box.x1 - box.x0 + 1, h = box.y1 - box.y0 + 1;
+  // A frame whose returns spread over more than 4 M cells (100 m square at 5 cm: stray far
+  // returns) is not searched: the table rule then holds as without the search.
+  constexpr std::size_t kMaxCells = std::size_t(1) << 22;
+  if (std::size_t(w) * std::size_t(h) > kMaxCells) return false;
   std::vector<float> lowest(std::size_t(w) * std::size_t(h), std::numeric_limits<float>::infinity());
   for (std::size_t i = 0; i < keys.size(); ++i) {
     const std::uint32_t k = keys[i];

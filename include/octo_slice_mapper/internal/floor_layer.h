@@ -31,10 +31,10 @@ struct FloorOptions {
   int memory_frames = 10;
   // Once a floor is known, a level surface found more than this (m) above it is not the floor
   // (a box, a seat, a table: a robot's floor does not step up by more than a ramp climbs
-  // between two frames); a lower one always is (what was known may have been a table). Nor does
-  // max_step below hold against a surface the frame's own returns climb to from the floor known
-  // without a step (a ramp up to a platform: each cell's lowest return within half a max_step of
-  // its neighbour's).
+  // between two frames); a lower one always is (what was known may have been a table). Neither
+  // this nor max_step below holds against a surface the frame's own returns climb to from the
+  // floor known without a step (a ramp up to a platform: each cell's lowest return within half a
+  // max_step of its neighbour's).
   double max_rise = 0.08;
   // Where the floor under the sensor was seen (not only followed from a plane), a level surface
   // more than this above it is a step's top, not the floor: a robot's low camera at a step sees
