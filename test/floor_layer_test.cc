@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <random>
+#include <string>
 #include <tuple>
 
 #include "octo_slice_mapper/internal/floor_layer.h"
@@ -28,6 +30,16 @@ std::vector<Eigen::Vector3d> floorFrame(double floor, double x0 = 0.0, double x1
   std::vector<Eigen::Vector3d> samples;
   addSurface(&samples, x0, x1, 0.0, 2.0, floor);
   return samples;
+}
+
+// The process's peak resident memory (kB, Linux's VmHWM), or -1 where it cannot be read.
+long peakResidentKb() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind("VmHWM:", 0) == 0) return std::stol(line.substr(6));
+  }
+  return -1;
 }
 
 }  // namespace
@@ -187,14 +199,35 @@ TEST(FloorLayer, APlatformTheFrameSeesARampClimbToIsTheFloor) {
     EXPECT_NEAR(view.heightAt(3.0, 1.0), ramp ? 0.10 : 0.0, 0.01) << "ramp " << ramp;
     EXPECT_NEAR(view.heightAt(0.5, 0.5), 0.0, 0.01) << "ramp " << ramp;  // the floor seen stays
   }
-  // A stray return 150 m off spreads the frame over 9 M cells: it is not searched (nor its grid
-  // allocated), and the table rule holds as without the search.
+  // A stray return 150 m off, within a long reach, spreads the frame over 9 M cells: it is not
+  // searched (nor its grid allocated), and the table rule holds as without the search.
   FloorLayer layer(kResolution, {});
-  for (std::uint64_t k = 0; k < FloorLayer::kLag; ++k) layer.observe(sensor, floorFrame(0.0, 0.0, 1.0), 10.0);
+  for (std::uint64_t k = 0; k < FloorLayer::kLag; ++k) layer.observe(sensor, floorFrame(0.0, 0.0, 1.0), 200.0);
   std::vector<Eigen::Vector3d> stray = frameUpTo(true);
   stray.emplace_back(150.0, 150.0, 0.5);
-  layer.observe(sensor, stray, 10.0);
+  layer.observe(sensor, stray, 200.0);
   EXPECT_EQ(layer.status().source, FloorSource::kKept);
+}
+
+// A stray return far off (1.6 km, within the octree of 5 cm voxels) gives the layer no cell
+// beyond the sensor's reach, and one within a long reach (900 m) no grid of the frame's box (a
+// gigabyte of flags): the floor is found all the same, within the memory a frame needs.
+TEST(FloorLayer, StrayReturnsFarOffCostNoGridOfTheirBox) {
+  for (const auto& [reach, stray, cells] : {std::tuple<double, double, std::size_t>{10.0, 1630.0, 40u * 40u},
+                                            std::tuple<double, double, std::size_t>{1000.0, 900.0, 40u * 40u + 2u}}) {
+    std::vector<Eigen::Vector3d> samples = floorFrame(0.0);
+    samples.emplace_back(-stray, -stray, 0.5);
+    samples.emplace_back(stray, stray, 0.5);
+    FloorLayer layer(kResolution, {});
+    const long peak_before = peakResidentKb();
+    const FloorView view = layer.observe(Eigen::Vector3d(0.0, 1.0, 1.0), samples, reach);
+    if (peak_before > 0) {
+      EXPECT_LT(peakResidentKb() - peak_before, 256 * 1024) << "reach " << reach;
+    }
+    EXPECT_EQ(layer.status().source, FloorSource::kFound) << "reach " << reach;
+    EXPECT_NEAR(view.heightAt(1.0, 1.0), 0.0, 0.01) << "reach " << reach;
+    EXPECT_EQ(layer.status().cells, cells) << "reach " << reach;  // the floor's, and the returns' within reach
+  }
 }
 
 // With the robot's ground point, the floor under it is the one it stands on: at a stairwell's edge

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <limits>
+#include <unordered_set>
 
 namespace octo_slice_mapper {
 
@@ -261,24 +262,43 @@ void FloorLayer::pass(std::uint64_t frame) {
 namespace {
 
 // Which cells of a box (cover() every cell first, then allocate()) were taken: a grid of flags,
-// cheaper than sorting a frame's cells to take each once.
+// cheaper than sorting a frame's cells to take each once; a set where the box is too large for a
+// grid (returns far apart: a stray return 1.6 km off would make it 4 GB).
 struct CellSet {
+  static constexpr std::size_t kMaxCells = std::size_t(1) << 22;  // 4 MB of flags: 100 m square at 5 cm
   int x0 = 65535, y0 = 65535, x1 = -1, y1 = -1;
   std::vector<std::uint8_t> taken;
+  std::unordered_set<std::uint32_t> taken_far;  // instead of `taken` for a box of more than kMaxCells
+  bool far = false;
   void cover(int kx, int ky) {
     x0 = std::min(x0, kx), x1 = std::max(x1, kx), y0 = std::min(y0, ky), y1 = std::max(y1, ky);
   }
-  void allocate() { taken.assign(x1 < x0 ? 0 : std::size_t(x1 - x0 + 1) * std::size_t(y1 - y0 + 1), 0); }
+  std::size_t area() const { return x1 < x0 ? 0 : std::size_t(x1 - x0 + 1) * std::size_t(y1 - y0 + 1); }
+  bool inside(std::uint32_t k) const {
+    const int kx = int(k & 0xffff), ky = int(k >> 16);
+    return k != kNone && kx >= x0 && kx <= x1 && ky >= y0 && ky <= y1;
+  }
+  void allocate() {
+    far = area() > kMaxCells;
+    taken.assign(far ? 0 : area(), 0);
+  }
   // Appends the cells (key x | key y << 16; kNone: none) keys[index(0)], ..., keys[index(count -
-  // 1)] not taken yet to `out`, in order, and takes them. Without a branch on whether a cell is
+  // 1)] in the box and not taken yet to `out`, in order, and takes them. Without a branch on whether a cell is
   // new: a frame's voxels come back to a column at no predictable step.
   template <typename Index>
   void takeNew(const std::vector<std::uint32_t>& keys, std::size_t count, Index index, std::vector<std::uint32_t>* out) {
+    if (far) {
+      for (std::size_t c = 0; c < count; ++c) {
+        const std::uint32_t k = keys[index(c)];
+        if (inside(k) && taken_far.insert(k).second) out->push_back(k);
+      }
+      return;
+    }
     out->resize(count);
     std::size_t n = 0;
     for (std::size_t c = 0; c < count; ++c) {
       const std::uint32_t k = keys[index(c)];
-      if (k == kNone) continue;
+      if (!inside(k)) continue;
       std::uint8_t& t = taken[std::size_t(int(k >> 16) - y0) * std::size_t(x1 - x0 + 1) + std::size_t(int(k & 0xffff) - x0)];
       (*out)[n] = k;
       n += t ^ 1;
@@ -297,12 +317,10 @@ struct CellSet {
 bool climbsTo(const std::vector<Eigen::Vector3d>& samples, const std::vector<std::uint32_t>& keys, const CellSet& box,
               const BoundedPlane& base, const FloorPlane& raised, double band, double climb, double rise,
               double resolution) {
-  if (box.x1 < box.x0) return false;
+  // A frame whose returns spread over more than CellSet::kMaxCells (stray far returns) is not
+  // searched: the table rule then holds as without the search.
+  if (box.x1 < box.x0 || box.area() > CellSet::kMaxCells) return false;
   const int w = box.x1 - box.x0 + 1, h = box.y1 - box.y0 + 1;
-  // A frame whose returns spread over more than 4 M cells (100 m square at 5 cm: stray far
-  // returns) is not searched: the table rule then holds as without the search.
-  constexpr std::size_t kMaxCells = std::size_t(1) << 22;
-  if (std::size_t(w) * std::size_t(h) > kMaxCells) return false;
   std::vector<float> lowest(std::size_t(w) * std::size_t(h), std::numeric_limits<float>::infinity());
   for (std::size_t i = 0; i < keys.size(); ++i) {
     const std::uint32_t k = keys[i];
@@ -349,7 +367,7 @@ bool climbsTo(const std::vector<Eigen::Vector3d>& samples, const std::vector<std
 
 FloorLayer::Fold FloorLayer::measure(const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples,
                                      const std::vector<std::uint32_t>* cells_given, const Known& known,
-                                     const FloorOptions& options, double inverse_resolution,
+                                     const FloorOptions& options, double inverse_resolution, double reach,
                                      const std::optional<Eigen::Vector3d>& ground) const {
   Fold fold;
   fold.observed = true;
@@ -373,9 +391,22 @@ FloorLayer::Fold FloorLayer::measure(const Eigen::Vector3d& sensor, const std::v
     }
   }
   const std::vector<std::uint32_t>& keys = given ? *cells_given : computed;
+  // Only the columns within `reach` of the sensor (the view's window): returns beyond the sensor's
+  // range are cut, and one stray return a kilometre off would otherwise give the slice a column
+  // there.
+  int wx0 = 0, wy0 = 0, wx1 = 65535, wy1 = 65535;
+  if (reach > 0.0) {
+    const double r = std::min(reach, 1000.0);
+    wx0 = std::max(0, floorKeyScaled(sensor.x() - r, inverse_resolution));
+    wy0 = std::max(0, floorKeyScaled(sensor.y() - r, inverse_resolution));
+    wx1 = floorKeyScaled(sensor.x() + r, inverse_resolution), wy1 = floorKeyScaled(sensor.y() + r, inverse_resolution);
+    if (wx1 < 0) wx1 = 65535;
+    if (wy1 < 0) wy1 = 65535;
+  }
   CellSet cells;
   for (std::uint32_t k : keys) {
-    if (k != kNone) cells.cover(int(k & 0xffff), int(k >> 16));
+    const int kx = int(k & 0xffff), ky = int(k >> 16);
+    if (k != kNone && kx >= wx0 && kx <= wx1 && ky >= wy0 && ky <= wy1) cells.cover(kx, ky);
   }
   cells.allocate();
   cells.takeNew(keys, fit->inliers.size(), [&](std::size_t c) { return fit->inliers[c]; }, &fold.floor_cells);
@@ -415,7 +446,7 @@ FloorView FloorLayer::observe(std::uint64_t frame, const Eigen::Vector3d& sensor
   const double inverse_resolution = inverse_resolution_;
   lock.unlock();
 
-  Fold measured = measure(sensor, samples, cells, known, options, inverse_resolution, ground);
+  Fold measured = measure(sensor, samples, cells, known, options, inverse_resolution, reach, ground);
 
   lock.lock();
   // Once a floor is known, a level surface well above it is not the floor (FloorOptions::max_rise,

@@ -256,10 +256,11 @@ class FloorLayer {
   // known floor is then another level.
   static bool belowKnownFloor(const BoundedPlane& plane, bool grounded, const Eigen::Vector3d& sensor,
                               const Known& known, const FloorOptions& options);
-  // A frame's floor measured against `known`: whether it is the floor, and the cells it speaks for.
+  // A frame's floor measured against `known`: whether it is the floor, and the cells within
+  // `reach` of the sensor (none: all) it speaks for.
   Fold measure(const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples,
                const std::vector<std::uint32_t>* cells, const Known& known, const FloorOptions& options,
-               double inverse_resolution, const std::optional<Eigen::Vector3d>& ground) const;
+               double inverse_resolution, double reach, const std::optional<Eigen::Vector3d>& ground) const;
   // Folds in the frames whose turn it is (under the lock).
   void foldReady();
   void fold(const Fold& frame);
