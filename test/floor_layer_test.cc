@@ -207,6 +207,12 @@ TEST(FloorLayer, APlatformTheFrameSeesARampClimbToIsTheFloor) {
   stray.emplace_back(150.0, 150.0, 0.5);
   layer.observe(sensor, stray, 200.0);
   EXPECT_EQ(layer.status().source, FloorSource::kKept);
+  // Beyond the reach, such a return is no part of the frame's cells: the ramp is found again.
+  FloorLayer near(kResolution, {});
+  for (std::uint64_t k = 0; k < FloorLayer::kLag; ++k) near.observe(sensor, floorFrame(0.0, 0.0, 1.0), 10.0);
+  stray.emplace_back(-1630.0, -1630.0, 0.5);
+  near.observe(sensor, stray, 10.0);
+  EXPECT_EQ(near.status().source, FloorSource::kFound);
 }
 
 // A stray return far off (1.6 km, within the octree of 5 cm voxels) gives the layer no cell

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <limits>
+#include <utility>
 #include <unordered_set>
 
 namespace octo_slice_mapper {
@@ -263,48 +264,64 @@ namespace {
 
 // Which cells of a box (cover() every cell first, then allocate()) were taken: a grid of flags,
 // cheaper than sorting a frame's cells to take each once; a set where the box is too large for a
-// grid (returns far apart: a stray return 1.6 km off would make it 4 GB).
+// grid (kMaxCells: a reach beyond about 50 m at 5 cm).
 struct CellSet {
   static constexpr std::size_t kMaxCells = std::size_t(1) << 22;  // 4 MB of flags: 100 m square at 5 cm
   int x0 = 65535, y0 = 65535, x1 = -1, y1 = -1;
+  bool clamped = false;  // keys outside the box may come, and are left out
+  bool far = false;      // the set, not the grid
   std::vector<std::uint8_t> taken;
-  std::unordered_set<std::uint32_t> taken_far;  // instead of `taken` for a box of more than kMaxCells
-  bool far = false;
+  std::unordered_set<std::uint32_t> taken_far;
   void cover(int kx, int ky) {
     x0 = std::min(x0, kx), x1 = std::max(x1, kx), y0 = std::min(y0, ky), y1 = std::max(y1, ky);
   }
-  std::size_t area() const { return x1 < x0 ? 0 : std::size_t(x1 - x0 + 1) * std::size_t(y1 - y0 + 1); }
-  bool inside(std::uint32_t k) const {
-    const int kx = int(k & 0xffff), ky = int(k >> 16);
-    return k != kNone && kx >= x0 && kx <= x1 && ky >= y0 && ky <= y1;
+  // Keeps the box within [wx0, wx1] x [wy0, wy1].
+  void clamp(int wx0, int wy0, int wx1, int wy1) {
+    if (x0 >= wx0 && y0 >= wy0 && x1 <= wx1 && y1 <= wy1) return;
+    x0 = std::max(x0, wx0), y0 = std::max(y0, wy0), x1 = std::min(x1, wx1), y1 = std::min(y1, wy1);
+    clamped = true;
+  }
+  std::size_t area() const {
+    return x1 < x0 || y1 < y0 ? 0 : std::size_t(x1 - x0 + 1) * std::size_t(y1 - y0 + 1);
   }
   void allocate() {
     far = area() > kMaxCells;
     taken.assign(far ? 0 : area(), 0);
   }
   // Appends the cells (key x | key y << 16; kNone: none) keys[index(0)], ..., keys[index(count -
-  // 1)] in the box and not taken yet to `out`, in order, and takes them. Without a branch on whether a cell is
-  // new: a frame's voxels come back to a column at no predictable step.
+  // 1)] in the box and not taken yet to `out`, in order, and takes them. Without a branch on
+  // whether a cell is new where the box holds every key: a frame's voxels come back to a column at
+  // no predictable step.
   template <typename Index>
   void takeNew(const std::vector<std::uint32_t>& keys, std::size_t count, Index index, std::vector<std::uint32_t>* out) {
-    if (far) {
+    if (far || clamped) {
       for (std::size_t c = 0; c < count; ++c) {
         const std::uint32_t k = keys[index(c)];
-        if (inside(k) && taken_far.insert(k).second) out->push_back(k);
+        const int kx = int(k & 0xffff), ky = int(k >> 16);
+        if (k == kNone || kx < x0 || kx > x1 || ky < y0 || ky > y1) continue;
+        const bool fresh = far ? taken_far.insert(k).second : !std::exchange(taken[index2(kx, ky)], std::uint8_t{1});
+        if (fresh) out->push_back(k);
       }
       return;
     }
     out->resize(count);
     std::size_t n = 0;
+    // (The box in locals: a store through the flags' bytes may alias the members.)
+    const int bx = x0, by = y0;
+    const std::size_t width = std::size_t(x1 - x0 + 1);
+    std::uint8_t* flags = taken.data();
     for (std::size_t c = 0; c < count; ++c) {
       const std::uint32_t k = keys[index(c)];
-      if (!inside(k)) continue;
-      std::uint8_t& t = taken[std::size_t(int(k >> 16) - y0) * std::size_t(x1 - x0 + 1) + std::size_t(int(k & 0xffff) - x0)];
+      if (k == kNone) continue;
+      std::uint8_t& t = flags[std::size_t(int(k >> 16) - by) * width + std::size_t(int(k & 0xffff) - bx)];
       (*out)[n] = k;
       n += t ^ 1;
       t = 1;
     }
     out->resize(n);
+  }
+  std::size_t index2(int kx, int ky) const {
+    return std::size_t(ky - y0) * std::size_t(x1 - x0 + 1) + std::size_t(kx - x0);
   }
   static constexpr std::uint32_t kNone = 0xffffffff;
 };
@@ -319,13 +336,14 @@ bool climbsTo(const std::vector<Eigen::Vector3d>& samples, const std::vector<std
               double resolution) {
   // A frame whose returns spread over more than CellSet::kMaxCells (stray far returns) is not
   // searched: the table rule then holds as without the search.
-  if (box.x1 < box.x0 || box.area() > CellSet::kMaxCells) return false;
+  if (box.area() == 0 || box.area() > CellSet::kMaxCells) return false;
   const int w = box.x1 - box.x0 + 1, h = box.y1 - box.y0 + 1;
   std::vector<float> lowest(std::size_t(w) * std::size_t(h), std::numeric_limits<float>::infinity());
   for (std::size_t i = 0; i < keys.size(); ++i) {
     const std::uint32_t k = keys[i];
-    if (k == CellSet::kNone) continue;
-    float& z = lowest[std::size_t(int(k >> 16) - box.y0) * std::size_t(w) + std::size_t(int(k & 0xffff) - box.x0)];
+    const int kx = int(k & 0xffff), ky = int(k >> 16);
+    if (k == CellSet::kNone || kx < box.x0 || kx > box.x1 || ky < box.y0 || ky > box.y1) continue;
+    float& z = lowest[box.index2(kx, ky)];
     z = std::min(z, static_cast<float>(samples[i].z()));
   }
   std::vector<std::uint8_t> reached(lowest.size(), 0);
@@ -405,9 +423,9 @@ FloorLayer::Fold FloorLayer::measure(const Eigen::Vector3d& sensor, const std::v
   }
   CellSet cells;
   for (std::uint32_t k : keys) {
-    const int kx = int(k & 0xffff), ky = int(k >> 16);
-    if (k != kNone && kx >= wx0 && kx <= wx1 && ky >= wy0 && ky <= wy1) cells.cover(kx, ky);
+    if (k != kNone) cells.cover(int(k & 0xffff), int(k >> 16));
   }
+  cells.clamp(wx0, wy0, wx1, wy1);
   cells.allocate();
   cells.takeNew(keys, fit->inliers.size(), [&](std::size_t c) { return fit->inliers[c]; }, &fold.floor_cells);
   cells.takeNew(keys, keys.size(), [](std::size_t c) { return c; }, &fold.other_cells);
