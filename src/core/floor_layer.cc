@@ -2,8 +2,8 @@
 
 #include <algorithm>
 #include <limits>
-#include <utility>
 #include <unordered_set>
+#include <utility>
 
 namespace octo_slice_mapper {
 

@@ -138,7 +138,8 @@ class FloorLayer {
   std::uint64_t take();
   // Finds frame `frame`'s floor among `samples` (map frame; its end-voxel means), seeded by the
   // floor known kLag frames before, and returns the view of the layer within `reach` (m) of the
-  // sensor that its returns are measured against; the floor is folded in in the frame's turn.
+  // sensor that its returns are measured against; the floor is folded in in the frame's turn, in
+  // the columns within `reach` only (returns beyond the sensor's range are cut).
   // `cells`, when given, holds each sample's cell, the octree column it lies in (its end voxel's):
   // key x | key y << 16, or 0xffffffff for none (which the map's far corner cell, keys 65535 and
   // 65535, is taken for). Otherwise each sample's cell is that of its x and y.
@@ -257,7 +258,7 @@ class FloorLayer {
   static bool belowKnownFloor(const BoundedPlane& plane, bool grounded, const Eigen::Vector3d& sensor,
                               const Known& known, const FloorOptions& options);
   // A frame's floor measured against `known`: whether it is the floor, and the cells within
-  // `reach` of the sensor (none: all) it speaks for.
+  // `reach` of the sensor (every cell for a reach of 0 or less) it speaks for.
   Fold measure(const Eigen::Vector3d& sensor, const std::vector<Eigen::Vector3d>& samples,
                const std::vector<std::uint32_t>* cells, const Known& known, const FloorOptions& options,
                double inverse_resolution, double reach, const std::optional<Eigen::Vector3d>& ground) const;
