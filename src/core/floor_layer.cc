@@ -234,9 +234,9 @@ double FloorLayer::highestFloorAt(double x, double y, std::uint64_t folded, doub
   return tile->height[i] + (tile->weight[i] > 0 ? std::min(options.max_rise, options.max_step) : options.max_rise);
 }
 
-bool FloorLayer::aboveKnownFloor(const BoundedPlane& plane, bool grounded, const Eigen::Vector3d& sensor,
+bool FloorLayer::aboveKnownFloor(const BoundedPlane& plane, bool grounded, bool reached, const Eigen::Vector3d& sensor,
                                  const Known& known, std::uint64_t folded, const FloorOptions& options) const {
-  if (grounded || !known.fallback_found || !known.last_plane) return false;
+  if (grounded || reached || !known.fallback_found || !known.last_plane) return false;
   const double highest =
       highestFloorAt(sensor.x(), sensor.y(), folded, known.last_plane->heightAt(sensor.x(), sensor.y()), options);
   return plane.heightAt(sensor.x(), sensor.y()) > highest;
@@ -261,6 +261,17 @@ void FloorLayer::pass(std::uint64_t frame) {
 }
 
 namespace {
+
+// The keys (floorKeyScaled: -1 outside the key range) of the square within `reach` (m, at most
+// 1 km) of the sensor: a frame's view, and the columns its floor speaks for.
+struct KeyWindow {
+  int x0, y0, x1, y1;
+};
+KeyWindow reachWindow(const Eigen::Vector3d& sensor, double reach, double inverse_resolution) {
+  const double r = std::min(reach, 1000.0);
+  return {floorKeyScaled(sensor.x() - r, inverse_resolution), floorKeyScaled(sensor.y() - r, inverse_resolution),
+          floorKeyScaled(sensor.x() + r, inverse_resolution), floorKeyScaled(sensor.y() + r, inverse_resolution)};
+}
 
 // Which cells of a box (cover() every cell first, then allocate()) were taken: a grid of flags,
 // cheaper than sorting a frame's cells to take each once; a set where the box is too large for a
@@ -412,20 +423,14 @@ FloorLayer::Fold FloorLayer::measure(const Eigen::Vector3d& sensor, const std::v
   // Only the columns within `reach` of the sensor (the view's window): returns beyond the sensor's
   // range are cut, and one stray return a kilometre off would otherwise give the slice a column
   // there.
-  int wx0 = 0, wy0 = 0, wx1 = 65535, wy1 = 65535;
-  if (reach > 0.0) {
-    const double r = std::min(reach, 1000.0);
-    wx0 = std::max(0, floorKeyScaled(sensor.x() - r, inverse_resolution));
-    wy0 = std::max(0, floorKeyScaled(sensor.y() - r, inverse_resolution));
-    wx1 = floorKeyScaled(sensor.x() + r, inverse_resolution), wy1 = floorKeyScaled(sensor.y() + r, inverse_resolution);
-    if (wx1 < 0) wx1 = 65535;
-    if (wy1 < 0) wy1 = 65535;
-  }
   CellSet cells;
   for (std::uint32_t k : keys) {
     if (k != kNone) cells.cover(int(k & 0xffff), int(k >> 16));
   }
-  cells.clamp(wx0, wy0, wx1, wy1);
+  if (reach > 0.0) {
+    const KeyWindow w = reachWindow(sensor, reach, inverse_resolution);
+    cells.clamp(std::max(0, w.x0), std::max(0, w.y0), w.x1 < 0 ? 65535 : w.x1, w.y1 < 0 ? 65535 : w.y1);
+  }
   cells.allocate();
   cells.takeNew(keys, fit->inliers.size(), [&](std::size_t c) { return fit->inliers[c]; }, &fold.floor_cells);
   cells.takeNew(keys, keys.size(), [](std::size_t c) { return c; }, &fold.other_cells);
@@ -469,7 +474,8 @@ FloorView FloorLayer::observe(std::uint64_t frame, const Eigen::Vector3d& sensor
   lock.lock();
   // Once a floor is known, a level surface well above it is not the floor (FloorOptions::max_rise,
   // max_step).
-  if (measured.plane && !measured.reached && aboveKnownFloor(*measured.plane, measured.grounded, sensor, known, folded, options)) {
+  if (measured.plane &&
+      aboveKnownFloor(*measured.plane, measured.grounded, measured.reached, sensor, known, folded, options)) {
     measured.plane.reset();
     measured.floor_cells.clear();
     measured.other_cells.clear();
@@ -482,9 +488,8 @@ FloorView FloorLayer::observe(std::uint64_t frame, const Eigen::Vector3d& sensor
   const bool lower = measured.plane && belowKnownFloor(*measured.plane, measured.grounded, sensor, known, options);
   // The rectangle even where nothing is known: the frame's own measurements go into it below.
   if (reach > 0.0) {
-    const double r = std::min(reach, 1000.0);
-    const int kx0 = floorKeyScaled(sensor.x() - r, inverse_resolution), kx1 = floorKeyScaled(sensor.x() + r, inverse_resolution);
-    const int ky0 = floorKeyScaled(sensor.y() - r, inverse_resolution), ky1 = floorKeyScaled(sensor.y() + r, inverse_resolution);
+    const KeyWindow w = reachWindow(sensor, reach, inverse_resolution);
+    const int kx0 = w.x0, kx1 = w.x1, ky0 = w.y0, ky1 = w.y1;
     if (kx0 >= 0 && kx1 >= 0 && ky0 >= 0 && ky1 >= 0) {
       view.tx0_ = kx0 >> FloorView::kTileBits, view.ty0_ = ky0 >> FloorView::kTileBits;
       view.tiles_x_ = (kx1 >> FloorView::kTileBits) - view.tx0_ + 1;
@@ -555,7 +560,9 @@ void FloorLayer::fold(const Fold& frame) {
   const Known now{last_plane_, fallback_found_, fallback_height_};
   // The table rule again, against the layer now: frames folded in since it was measured may have
   // found the floor.
-  if (found && !frame.reached && aboveKnownFloor(*found, frame.grounded, sensor, now, ~std::uint64_t{0}, options_)) found.reset();
+  if (found && aboveKnownFloor(*found, frame.grounded, frame.reached, sensor, now, ~std::uint64_t{0}, options_)) {
+    found.reset();
+  }
   if (!found) {
     status_.source = fallback_found_ ? FloorSource::kKept : FloorSource::kAssumed;
     status_.height = last_plane_ ? last_plane_->heightAt(sensor.x(), sensor.y()) : 0.0;

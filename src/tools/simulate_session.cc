@@ -94,7 +94,9 @@ int main(int argc, char** argv) {
   std::string error;
   const auto truth = plan.groundTruth(0.05);
   if (!octo_slice_mapper::savePgmYaml(truth, truth_prefix, &error) ||
-      !octo_slice_mapper::savePgmYaml(plan.groundTruthBand(0.05, octo_slice_mapper::kNavigationBandMinZ, octo_slice_mapper::kNavigationBandMaxZ), truth_prefix + "_nav", &error)) {
+      !octo_slice_mapper::savePgmYaml(
+          plan.groundTruthBand(0.05, octo_slice_mapper::kNavigationBandMinZ, octo_slice_mapper::kNavigationBandMaxZ),
+          truth_prefix + "_nav", &error)) {
     std::cerr << "simulate_session: " << error << "\n";
     return 1;
   }

@@ -249,9 +249,10 @@ class FloorLayer {
   }
   // The table rule: whether a frame's plane, seen from `sensor`, stands higher over the floor
   // known (`known`, the layer once `folded` frames were folded in) than a floor may (highestFloorAt).
-  // Never for a plane through the carrier's ground point (`grounded`).
-  bool aboveKnownFloor(const BoundedPlane& plane, bool grounded, const Eigen::Vector3d& sensor, const Known& known,
-                       std::uint64_t folded, const FloorOptions& options) const;
+  // Never for a plane through the carrier's ground point (`grounded`), nor for one the frame's
+  // returns climb to from the floor known (`reached`, Fold::reached).
+  bool aboveKnownFloor(const BoundedPlane& plane, bool grounded, bool reached, const Eigen::Vector3d& sensor,
+                       const Known& known, std::uint64_t folded, const FloorOptions& options) const;
   // Whether it lies well below the floor known (farther than the seed window): what was taken for
   // the floor was a table, and the cells known are not this floor. Never for a grounded plane: the
   // known floor is then another level.
